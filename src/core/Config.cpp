@@ -1,0 +1,186 @@
+#include "core/Config.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace cassini {
+
+bool Config::friction() const {
+  return std::any_of(species.begin(), species.end(), [](const Species& s) { return s.mu_s > 0; });
+}
+
+double Config::max_radius() const {
+  double r = 0;
+  for (const auto& s : species) r = std::max(r, s.radius_max);
+  return r;
+}
+
+bool Config::has_module(const std::string& name) const {
+  return std::find(modules.begin(), modules.end(), name) != modules.end();
+}
+
+namespace {
+
+const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls"};
+
+int axis_index(CaseFile& f, const std::string& key, const std::string& v) {
+  if (v == "x") return 0;
+  if (v == "y") return 1;
+  if (v == "z") return 2;
+  f.fail(key, "one of \"x\", \"y\", \"z\"");
+}
+
+double positive(CaseFile& f, const std::string& key, std::optional<double> fallback = std::nullopt) {
+  const double v = f.number(key, fallback);
+  if (!(v > 0)) f.fail(key, "a positive number");
+  return v;
+}
+
+double non_negative(CaseFile& f, const std::string& key, double fallback) {
+  const double v = f.number(key, fallback);
+  if (v < 0) f.fail(key, "a number >= 0");
+  return v;
+}
+
+}  // namespace
+
+Config read_config(CaseFile& f) {
+  Config c;
+  c.source = f.source();
+
+  // ---- domain
+  c.lo = f.vec3("domain.lo");
+  c.hi = f.vec3("domain.hi");
+  for (int d = 0; d < 3; ++d)
+    if (!(c.hi[d] > c.lo[d])) f.fail("domain.hi", "every component larger than domain.lo");
+  const auto bounds = f.strings("domain.boundary", std::vector<std::string>{"periodic", "periodic", "periodic"});
+  if (bounds.size() != 3) f.fail("domain.boundary", "3 entries (x, y, z), each \"periodic\", \"wall\" or \"open\"");
+  for (int d = 0; d < 3; ++d) {
+    if (bounds[d] == "periodic") c.boundary[d] = Boundary::Periodic;
+    else if (bounds[d] == "wall") c.boundary[d] = Boundary::Wall;
+    else if (bounds[d] == "open") c.boundary[d] = Boundary::Open;
+    else f.fail("domain.boundary", "each entry \"periodic\", \"wall\" or \"open\"");
+  }
+  c.planar = f.boolean("domain.planar", false);
+  c.slab_axis = axis_index(f, "domain.slab_axis", f.string("domain.slab_axis", "x"));
+  if (c.planar && c.slab_axis == 2) f.fail("domain.slab_axis", "\"x\" or \"y\" in a planar scene");
+
+  // ---- species
+  const auto ns = f.array_size("species");
+  if (ns == 0) f.fail("species", "at least one [[species]] table");
+  for (std::size_t i = 0; i < ns; ++i) {
+    const std::string p = "species[" + std::to_string(i) + "].";
+    Species s;
+    s.name = f.string(p + "name", "species" + std::to_string(i));
+    s.density = positive(f, p + "density");
+    if (f.has(p + "radius")) {
+      s.radius_min = s.radius_max = positive(f, p + "radius");
+    } else {
+      s.radius_min = positive(f, p + "radius_min");
+      s.radius_max = positive(f, p + "radius_max");
+      if (s.radius_max < s.radius_min) f.fail(p + "radius_max", "a value >= radius_min");
+    }
+    s.t_c = positive(f, p + "t_c");
+    s.e = f.number(p + "e");
+    if (!(s.e > 0 && s.e <= 1)) f.fail(p + "e", "a restitution coefficient in (0, 1]");
+    s.mu_s = non_negative(f, p + "mu_s", 0.0);
+    s.mu_d = non_negative(f, p + "mu_d", s.mu_s);
+    if (s.mu_d > s.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
+    s.kt_ratio = non_negative(f, p + "kt_ratio", 2.0 / 7.0);
+    s.gammat_ratio = non_negative(f, p + "gammat_ratio", 2.0 / 7.0);
+    for (const auto& other : c.species)
+      if (other.name == s.name) f.fail(p + "name", "a name not used by another species");
+    c.species.push_back(s);
+  }
+
+  // ---- modules
+  c.modules = f.strings("modules", std::vector<std::string>{"contact"});
+  for (const auto& m : c.modules)
+    if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end())
+      f.fail("modules", "module names from {contact, gravity, walls}; unknown module '" + m + "'");
+  const bool has_walls = std::find(c.boundary.begin(), c.boundary.end(), Boundary::Wall) != c.boundary.end();
+  if (has_walls && !c.has_module("walls")) c.modules.push_back("walls");  // walls are geometry
+  if (c.planar && c.boundary[2] == Boundary::Wall) f.fail("domain.boundary", "no z walls in a planar scene");
+
+  // ---- contact
+  c.clip_normal = f.boolean("contact.clip_normal", false);
+  c.skin = f.number("contact.skin", 0.2 * c.max_radius());
+  if (!(c.skin > 0)) f.fail("contact.skin", "a positive length");
+  c.max_rebuild_every = f.integer("contact.rebuild_every", 0);
+  if (c.max_rebuild_every < 0) f.fail("contact.rebuild_every", "an integer >= 0");
+
+  // ---- gravity
+  if (c.has_module("gravity")) c.gravity = f.vec3("gravity.g");
+
+  // ---- time: dt given directly or as t_c / n_c of the stiffest species
+  double tc_min = 1e300;
+  for (const auto& s : c.species) tc_min = std::min(tc_min, s.t_c);
+  c.force_dt = f.boolean("time.force", false);
+  if (f.has("time.dt") && f.has("time.n_c")) f.fail("time.n_c", "either time.dt or time.n_c, not both");
+  if (f.has("time.dt")) {
+    c.dt = positive(f, "time.dt");
+  } else {
+    const double nc = positive(f, "time.n_c", 50.0);
+    c.dt = tc_min / nc;
+  }
+  if (c.dt > tc_min / 10 && !c.force_dt)
+    f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
+           "dt <= t_c/10 = " + std::to_string(tc_min / 10) +
+               " (the restitution is badly wrong beyond; set time.force = true to run anyway)");
+  if (c.dt >= 0.6 * tc_min)
+    f.fail("time.dt", "dt < 0.6 t_c: velocity Verlet is unstable on the contact spring beyond that, even with time.force");
+  c.t_end = positive(f, "time.end");
+
+  // ---- initial particles
+  c.init = f.string("particles.init", "random");
+  c.seed = static_cast<std::uint64_t>(f.integer("seed", 1));
+  const auto sp_name = f.string("particles.species", c.species[0].name);
+  auto it = std::find_if(c.species.begin(), c.species.end(), [&](const Species& s) { return s.name == sp_name; });
+  if (it == c.species.end()) f.fail("particles.species", "the name of a [[species]]");
+  c.init_species = static_cast<int>(it - c.species.begin());
+  c.velocity_mean = f.vec3("particles.velocity", Vec3(0, 0, 0));
+  c.velocity_sigma = non_negative(f, "particles.velocity_sigma", 0.0);
+  if (c.init == "random" || c.init == "lattice") {
+    if (f.has("particles.count") == f.has("particles.volume_fraction"))
+      f.fail("particles.count", "exactly one of particles.count or particles.volume_fraction");
+    if (f.has("particles.count")) {
+      c.count = f.integer("particles.count");
+      if (c.count < 1) f.fail("particles.count", "a positive integer");
+    } else {
+      c.volume_fraction = f.number("particles.volume_fraction");
+      if (!(c.volume_fraction > 0 && c.volume_fraction < 0.74))
+        f.fail("particles.volume_fraction", "a volume fraction in (0, 0.74)");
+    }
+    if (c.init == "lattice") {
+      c.lattice_jitter = f.number("particles.jitter", 0.0);
+      if (c.lattice_jitter < 0 || c.lattice_jitter > 0.5) f.fail("particles.jitter", "a fraction of the gap in [0, 0.5]");
+    }
+  } else if (c.init == "file") {
+    c.init_file = f.string("particles.file");
+    if (!c.init_file.empty() && c.init_file[0] != '/') c.init_file = f.directory() + "/" + c.init_file;
+  } else {
+    f.fail("particles.init", "\"random\", \"lattice\" or \"file\"");
+  }
+
+  // ---- output
+  c.dump_every = non_negative(f, "output.dump_every", 0.0);
+  c.observe_every = non_negative(f, "output.observe_every", c.t_end / 100);
+  c.progress_every = positive(f, "output.progress_every", 2.0);
+
+  // ---- guards
+  c.max_overlap_fraction = positive(f, "guards.max_overlap", 0.2);
+  c.energy_growth = positive(f, "guards.energy_growth", 1e3);
+
+  // A box too small for the interaction range cannot be decomposed or imaged correctly.
+  const double range = 2 * c.max_radius() + c.skin;
+  for (int d = 0; d < (c.planar ? 2 : 3); ++d)
+    if (c.boundary[d] == Boundary::Periodic && c.hi[d] - c.lo[d] < 2 * range)
+      f.fail("domain.hi", "a periodic box at least 2 x (2 a_max + skin) = " + std::to_string(2 * range) +
+                              " long on every periodic axis");
+
+  f.reject_unknown_keys();
+  return c;
+}
+
+}  // namespace cassini

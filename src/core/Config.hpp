@@ -1,0 +1,75 @@
+#pragma once
+// The resolved, validated description of a run. Built once from a case file; everything
+// downstream reads this plain struct, never the TOML.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/CaseFile.hpp"
+#include "core/Vec3.hpp"
+
+namespace cassini {
+
+enum class Boundary { Periodic, Wall, Open };
+
+struct Species {
+  std::string name;
+  double density = 0;
+  double radius_min = 0, radius_max = 0;  // equal for monodisperse; uniform in between otherwise
+  double t_c = 0;                         // contact duration
+  double e = 1;                           // normal restitution
+  double mu_s = 0, mu_d = 0;              // Coulomb static and dynamic friction
+  double kt_ratio = 2.0 / 7.0;            // k_t = kt_ratio k
+  double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
+};
+
+struct Config {
+  std::string source;  // case file path, for messages
+
+  // domain
+  Vec3 lo{0, 0, 0}, hi{1, 1, 1};
+  std::array<Boundary, 3> boundary{Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
+  bool planar = false;  // centres stay on z = lo_z..hi_z midplane; z is never integrated
+  int slab_axis = 0;
+
+  std::vector<Species> species;
+
+  // initial particles
+  std::string init = "random";  // random | lattice | file
+  long count = 0;               // random/lattice: number of particles (0 = from volume_fraction)
+  double volume_fraction = 0;
+  std::string init_file;
+  int init_species = 0;
+  Vec3 velocity_mean{0, 0, 0};
+  double velocity_sigma = 0;  // Gaussian dispersion per velocity component
+  double lattice_jitter = 0;  // random displacement, as a fraction of the lattice gap
+
+  std::vector<std::string> modules;
+  Vec3 gravity{0, 0, 0};
+  bool clip_normal = false;
+  double skin = 0;                // Verlet skin; default 0.1 x largest diameter
+  double max_rebuild_every = 0;   // 0: rebuild only on displacement
+
+  double dt = 0, t_end = 0;
+  bool force_dt = false;
+
+  double dump_every = 0;      // simulated time between text dumps (0: none)
+  double observe_every = 0;   // simulated time between observables rows (0: 100 rows per run)
+  double progress_every = 2;  // wall seconds between progress lines
+
+  // guards
+  double max_overlap_fraction = 0.2;  // stop when an overlap exceeds this fraction of a radius
+  double energy_growth = 1e3;         // stop when kinetic energy grows by this factor (no source)
+
+  std::uint64_t seed = 1;
+
+  bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
+  double max_radius() const;
+  bool has_module(const std::string& name) const;
+};
+
+// Reads and validates; throws ConfigError naming file, key and expectation.
+Config read_config(CaseFile& file);
+
+}  // namespace cassini

@@ -1,0 +1,226 @@
+#include "core/Initializer.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <unordered_map>
+
+#include "core/CaseFile.hpp"
+
+namespace cassini {
+
+double Random::gaussian() {  // Box-Muller
+  const double u1 = 1.0 - uniform(), u2 = uniform();
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * std::numbers::pi * u2);
+}
+
+namespace {
+
+struct Candidate {
+  Vec3 x;
+  double a;
+};
+
+[[noreturn]] void fail(const Config& cfg, const std::string& key, const std::string& msg) {
+  throw ConfigError(cfg.source + ": key '" + key + "': " + msg);
+}
+
+// Region where centres may go: a radius away from walls and open faces; anywhere on periodic axes.
+void centre_bounds(const Config& cfg, Vec3& lo, Vec3& hi) {
+  const double a = cfg.max_radius();
+  for (int d = 0; d < 3; ++d) {
+    const bool per = cfg.boundary[d] == Boundary::Periodic;
+    lo[d] = cfg.lo[d] + (per ? 0 : a);
+    hi[d] = cfg.hi[d] - (per ? 0 : a);
+  }
+  if (cfg.planar) lo[2] = hi[2] = 0.5 * (cfg.lo[2] + cfg.hi[2]);
+}
+
+double mean_power(const Species& s, int k) {  // <a^k> for a uniform radius distribution
+  if (s.radius_max == s.radius_min) return std::pow(s.radius_min, k);
+  return (std::pow(s.radius_max, k + 1) - std::pow(s.radius_min, k + 1)) / ((k + 1) * (s.radius_max - s.radius_min));
+}
+
+long resolve_count(const Config& cfg) {
+  if (cfg.count > 0) return cfg.count;
+  const Species& s = cfg.species[cfg.init_species];
+  const Vec3 L = cfg.hi - cfg.lo;
+  if (cfg.planar) return std::lround(cfg.volume_fraction * L[0] * L[1] / (std::numbers::pi * mean_power(s, 2)));
+  return std::lround(cfg.volume_fraction * L[0] * L[1] * L[2] / (4.0 / 3.0 * std::numbers::pi * mean_power(s, 3)));
+}
+
+double draw_radius(const Species& s, Random& rng) {
+  return s.radius_min == s.radius_max ? s.radius_min : rng.uniform(s.radius_min, s.radius_max);
+}
+
+// Random sequential addition with a cell grid; refuses packings it cannot reach.
+std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) {
+  const Species& s = cfg.species[cfg.init_species];
+  const Vec3 L = cfg.hi - cfg.lo;
+  const double fraction = cfg.planar ? n * std::numbers::pi * mean_power(s, 2) / (L[0] * L[1])
+                                     : n * 4.0 / 3.0 * std::numbers::pi * mean_power(s, 3) / L.prod();
+  const double limit = cfg.planar ? 0.50 : 0.35;  // below the random-sequential-addition jamming limits
+  const std::string key = cfg.count > 0 ? "particles.count" : "particles.volume_fraction";
+  if (fraction > limit) {
+    std::ostringstream os;
+    os << "expected at most a " << (cfg.planar ? "area" : "volume") << " fraction of " << limit
+       << " for random placement, got " << fraction << " (" << n << " particles); use particles.init = \"lattice\"";
+    fail(cfg, key, os.str());
+  }
+  Vec3 lo, hi;
+  centre_bounds(cfg, lo, hi);
+  const double cell = 2 * cfg.max_radius();
+  int nc[3];
+  for (int d = 0; d < 3; ++d) nc[d] = std::max(1, static_cast<int>(L[d] / cell));
+  if (cfg.planar) nc[2] = 1;
+  auto cell_of = [&](const Vec3& x, int c[3]) {
+    for (int d = 0; d < 3; ++d) c[d] = std::clamp(static_cast<int>((x[d] - cfg.lo[d]) / L[d] * nc[d]), 0, nc[d] - 1);
+  };
+  std::unordered_map<long, std::vector<int>> grid;
+  auto key_of = [&](int cx, int cy, int cz) { return (long(cz) * nc[1] + cy) * nc[0] + cx; };
+  std::vector<Candidate> out;
+  out.reserve(n);
+  for (long k = 0; k < n; ++k) {
+    const double a = draw_radius(s, rng);
+    bool placed = false;
+    for (int attempt = 0; attempt < 10000 && !placed; ++attempt) {
+      Vec3 x;
+      for (int d = 0; d < 3; ++d) x[d] = lo[d] == hi[d] ? lo[d] : rng.uniform(lo[d], hi[d]);
+      int c[3];
+      cell_of(x, c);
+      bool ok = true;
+      for (int dz = (nc[2] > 1 ? -1 : 0); dz <= (nc[2] > 1 ? 1 : 0) && ok; ++dz)
+        for (int dy = -1; dy <= 1 && ok; ++dy)
+          for (int dx = -1; dx <= 1 && ok; ++dx) {
+            int q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+            bool skip = false;
+            for (int d = 0; d < 3; ++d) {
+              if (q[d] < 0 || q[d] >= nc[d]) {
+                if (cfg.boundary[d] != Boundary::Periodic) skip = true;
+                q[d] = (q[d] + nc[d]) % nc[d];
+              }
+            }
+            if (skip) continue;
+            auto it = grid.find(key_of(q[0], q[1], q[2]));
+            if (it == grid.end()) continue;
+            for (int j : it->second) {
+              Vec3 dvec = x - out[j].x;
+              for (int d = 0; d < 3; ++d)
+                if (cfg.boundary[d] == Boundary::Periodic) dvec[d] -= L[d] * std::round(dvec[d] / L[d]);
+              const double R = a + out[j].a;
+              if (dvec.squaredNorm() < R * R) { ok = false; break; }
+            }
+          }
+      if (ok) {
+        grid[key_of(c[0], c[1], c[2])].push_back(static_cast<int>(out.size()));
+        out.push_back({x, a});
+        placed = true;
+      }
+    }
+    if (!placed) {
+      std::ostringstream os;
+      os << "expected a count that fits; placed only " << k << " of " << n << " particles without overlap";
+      fail(cfg, key, os.str());
+    }
+  }
+  return out;
+}
+
+std::vector<Candidate> lattice_positions(const Config& cfg, long n, Random& rng) {
+  const Species& s = cfg.species[cfg.init_species];
+  Vec3 lo, hi;
+  centre_bounds(cfg, lo, hi);
+  const int dims = cfg.planar ? 2 : 3;
+  Vec3 span = hi - lo;
+  // Periodic axes: sites at lo + (k + 1/2) L/n; walled axes: the centre range edge to edge.
+  double volume = 1;
+  for (int d = 0; d < dims; ++d) volume *= (cfg.boundary[d] == Boundary::Periodic ? span[d] : span[d] + 2 * s.radius_max);
+  double spacing = std::pow(volume / n, 1.0 / dims);
+  int m[3] = {1, 1, 1};
+  for (int iter = 0; iter < 2000; ++iter, spacing *= 0.995) {
+    long sites = 1;
+    for (int d = 0; d < dims; ++d) {
+      const double len = cfg.boundary[d] == Boundary::Periodic ? span[d] : span[d] + 2 * s.radius_max;
+      m[d] = std::max(1, static_cast<int>(len / spacing));
+      sites *= m[d];
+    }
+    if (sites >= n) break;
+  }
+  Vec3 gap;
+  for (int d = 0; d < 3; ++d) {
+    const double len = d < dims ? (cfg.boundary[d] == Boundary::Periodic ? span[d] : span[d] + 2 * s.radius_max) : 0;
+    gap[d] = d < dims ? len / m[d] : 0;
+    if (d < dims && gap[d] < 2 * s.radius_max)
+      fail(cfg, cfg.count > 0 ? "particles.count" : "particles.volume_fraction",
+           "expected a count whose simple-cubic lattice fits the domain (site spacing " + std::to_string(gap[d]) +
+               " < diameter " + std::to_string(2 * s.radius_max) + ")");
+  }
+  std::vector<Candidate> out;
+  for (long k = 0; k < n; ++k) {
+    const long ix = k % m[0], iy = (k / m[0]) % m[1], iz = k / (long(m[0]) * m[1]);
+    Vec3 x;
+    const long idx[3] = {ix, iy, iz};
+    for (int d = 0; d < 3; ++d) {
+      if (d >= dims) { x[d] = lo[d]; continue; }
+      const double base = cfg.boundary[d] == Boundary::Periodic ? lo[d] : lo[d] - s.radius_max;
+      x[d] = base + (idx[d] + 0.5) * gap[d];
+      x[d] += cfg.lattice_jitter * 0.5 * (gap[d] - 2 * s.radius_max) * rng.uniform(-1, 1);
+    }
+    out.push_back({x, s.radius_max == s.radius_min ? s.radius_min : draw_radius(s, rng)});
+  }
+  return out;
+}
+
+}  // namespace
+
+void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore& p) {
+  Random rng(cfg.seed);
+  std::vector<Candidate> cands;
+  std::vector<Vec3> velocities;
+  std::vector<int> species;
+  if (cfg.init == "file") {
+    std::ifstream in(cfg.init_file);
+    if (!in) throw ConfigError(cfg.source + ": key 'particles.file': cannot open '" + cfg.init_file + "'");
+    std::string line;
+    int lineno = 0;
+    while (std::getline(in, line)) {
+      ++lineno;
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream ls(line);
+      Vec3 x, v;
+      double a;
+      int sp = cfg.init_species;
+      if (!(ls >> x[0] >> x[1] >> x[2] >> v[0] >> v[1] >> v[2] >> a) || !(a > 0))
+        throw ConfigError(cfg.init_file + ":" + std::to_string(lineno) +
+                          ": expected 'x y z vx vy vz radius [species-index]' with radius > 0");
+      if (ls >> sp && (sp < 0 || sp >= int(cfg.species.size())))
+        throw ConfigError(cfg.init_file + ":" + std::to_string(lineno) + ": species index out of range");
+      cands.push_back({x, a});
+      velocities.push_back(v);
+      species.push_back(sp);
+    }
+  } else {
+    const long n = resolve_count(cfg);
+    cands = cfg.init == "random" ? random_positions(cfg, n, rng) : lattice_positions(cfg, n, rng);
+    for (long k = 0; k < n; ++k) {
+      Vec3 v = cfg.velocity_mean;
+      for (int d = 0; d < (cfg.planar ? 2 : 3); ++d) v[d] += cfg.velocity_sigma * rng.gaussian();
+      if (cfg.planar) v[2] = 0;
+      velocities.push_back(v);
+      species.push_back(cfg.init_species);
+    }
+  }
+  for (std::size_t k = 0; k < cands.size(); ++k) {
+    Vec3 x = cands[k].x;
+    for (int d = 0; d < 3; ++d)  // periodic axes: wrap into the box
+      if (cfg.boundary[d] == Boundary::Periodic) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
+    if (dom.owner(x[dom.axis]) != dom.rank) continue;
+    const double a = cands[k].a;
+    const double m = cfg.species[species[k]].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+    p.add(static_cast<std::int64_t>(k), species[k], a, m, x, velocities[k]);
+  }
+  p.nlocal = p.size();
+}
+
+}  // namespace cassini

@@ -1,0 +1,40 @@
+#pragma once
+// A piece of physics (or bookkeeping) that plugs into the per-rank step loop. A module says
+// which stages it uses; the loop calls only those, so a scene pays only for what it names.
+//
+// One step (velocity Verlet, kick-drift-kick):
+//   initial_integrate   v += dt/2 F/m; x += dt v          (VelocityVerlet)
+//   -- ghosts refreshed, or neighbour list rebuilt (pre_rebuild / post_rebuild)
+//   force               forces from x(t+dt) and the half-step velocity v(t+dt/2)
+//   final_integrate     v += dt/2 F/m
+//   end_of_step         guards, observables, output
+#include <string>
+
+namespace cassini {
+
+class Simulation;
+
+enum Stage : unsigned {
+  kInitialIntegrate = 1u << 0,
+  kForce = 1u << 1,
+  kFinalIntegrate = 1u << 2,
+  kEndOfStep = 1u << 3,
+  kRebuild = 1u << 4,  // pre_rebuild / post_rebuild around migration and list rebuild
+};
+
+class Module {
+ public:
+  virtual ~Module() = default;
+  virtual std::string name() const = 0;
+  virtual unsigned stages() const = 0;
+
+  virtual void setup(Simulation&) {}
+  virtual void initial_integrate(Simulation&) {}
+  virtual void force(Simulation&) {}
+  virtual void final_integrate(Simulation&) {}
+  virtual void end_of_step(Simulation&) {}
+  virtual void pre_rebuild(Simulation&) {}
+  virtual void post_rebuild(Simulation&) {}
+};
+
+}  // namespace cassini

@@ -1,0 +1,92 @@
+#include "core/NeighborList.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cassini {
+
+NeighborList::Grid NeighborList::make_grid(const Decomposition& dom, double range) {
+  Grid g;
+  for (int d = 0; d < 3; ++d) {
+    const double lo = (d == dom.axis ? dom.slab_lo() : dom.lo[d]) - range;
+    const double hi = (d == dom.axis ? dom.slab_hi() : dom.hi[d]) + range;
+    g.n[d] = d < dom.dims ? std::max(1, static_cast<int>((hi - lo) / range)) : 1;
+    g.lo[d] = lo;
+    g.inv_size[d] = g.n[d] / (hi - lo);
+  }
+  return g;
+}
+
+int NeighborList::Grid::cell(const Vec3& x) const {
+  int c[3];
+  for (int d = 0; d < 3; ++d)  // clamped: particles slightly past a wall or open face still bin
+    c[d] = std::clamp(static_cast<int>(std::floor((x[d] - lo[d]) * inv_size[d])), 0, n[d] - 1);
+  return (c[2] * n[1] + c[1]) * n[0] + c[0];
+}
+
+std::vector<std::size_t> NeighborList::spatial_order(const ParticleStore& p, const Decomposition& dom, double range) {
+  const Grid g = make_grid(dom, range);
+  const std::size_t ncell = std::size_t(g.n[0]) * g.n[1] * g.n[2];
+  std::vector<std::uint32_t> cell(p.nlocal), count(ncell + 1, 0);
+  for (std::size_t i = 0; i < p.nlocal; ++i) ++count[(cell[i] = g.cell(p.x[i])) + 1];
+  for (std::size_t c = 0; c < ncell; ++c) count[c + 1] += count[c];
+  std::vector<std::size_t> order(p.nlocal);
+  for (std::size_t i = 0; i < p.nlocal; ++i) order[count[cell[i]]++] = i;
+  return order;
+}
+
+void NeighborList::build(const ParticleStore& p, const Decomposition& dom, double range, double skin) {
+  const Grid g = make_grid(dom, range);
+  const std::size_t n = p.size(), ncell = std::size_t(g.n[0]) * g.n[1] * g.n[2];
+  cell_of_.resize(n);
+  cell_start_.assign(ncell + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) ++cell_start_[(cell_of_[i] = g.cell(p.x[i])) + 1];
+  for (std::size_t c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_items_.resize(n);
+  {
+    std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+  }
+
+  start.resize(p.nlocal + 1);
+  partner.clear();
+  const int zr = g.n[2] > 1 ? 1 : 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    start[i] = static_cast<std::uint32_t>(partner.size());
+    const std::uint32_t c = cell_of_[i];
+    const int cx = c % g.n[0], cy = (c / g.n[0]) % g.n[1], cz = c / (g.n[0] * g.n[1]);
+    const Vec3 xi = p.x[i];
+    const double ri = p.radius[i] + skin;
+    for (int dz = -zr; dz <= zr; ++dz) {
+      const int z = cz + dz;
+      if (z < 0 || z >= g.n[2]) continue;
+      for (int dy = -1; dy <= 1; ++dy) {
+        const int y = cy + dy;
+        if (y < 0 || y >= g.n[1]) continue;
+        const int x0 = std::max(cx - 1, 0), x1 = std::min(cx + 1, g.n[0] - 1);
+        const std::size_t row = (std::size_t(z) * g.n[1] + y) * g.n[0];
+        // cells x0..x1 of one row are contiguous in cell_items_
+        for (std::uint32_t k = cell_start_[row + x0]; k < cell_start_[row + x1 + 1]; ++k) {
+          const std::uint32_t j = cell_items_[k];
+          const double cut = ri + p.radius[j];
+          if ((xi - p.x[j]).squaredNorm() < cut * cut && j != i) partner.push_back(j);
+        }
+      }
+    }
+    // Sum order = partner id order (insertion sort: lists are short).
+    auto* b = partner.data() + start[i];
+    const std::size_t len = partner.size() - start[i];
+    for (std::size_t a = 1; a < len; ++a) {
+      const std::uint32_t key = b[a];
+      std::size_t q = a;
+      while (q > 0 && p.id[b[q - 1]] > p.id[key]) {
+        b[q] = b[q - 1];
+        --q;
+      }
+      b[q] = key;
+    }
+  }
+  start[p.nlocal] = static_cast<std::uint32_t>(partner.size());
+}
+
+}  // namespace cassini

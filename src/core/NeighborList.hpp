@@ -1,0 +1,37 @@
+#pragma once
+// Verlet neighbour list built with linked cells. Full list: every owned particle lists all
+// partners (owned or ghost) within a_i + a_j + skin, sorted by partner id. Each particle then
+// sums its own contact forces in id order, so its force is bitwise the same whatever the
+// rank count, and no ghost forces need to be sent back (the pair force is computed on both
+// sides; it is exactly antisymmetric).
+#include <cstdint>
+#include <vector>
+
+#include "core/ParticleStore.hpp"
+#include "parallel/Decomposition.hpp"
+
+namespace cassini {
+
+class NeighborList {
+ public:
+  std::vector<std::uint32_t> start;    // nlocal + 1 offsets into partner
+  std::vector<std::uint32_t> partner;  // local or ghost index
+
+  void build(const ParticleStore& p, const Decomposition& dom, double range, double skin);
+  // Order of owned particles by cell, to keep neighbours close in memory.
+  static std::vector<std::size_t> spatial_order(const ParticleStore& p, const Decomposition& dom, double range);
+
+  std::size_t size() const { return partner.size(); }
+
+ private:
+  struct Grid {
+    Vec3 lo;
+    Vec3 inv_size;
+    int n[3];
+    int cell(const Vec3& x) const;
+  };
+  static Grid make_grid(const Decomposition& dom, double range);
+  std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
+};
+
+}  // namespace cassini

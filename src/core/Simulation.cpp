@@ -1,0 +1,198 @@
+#include "core/Simulation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <sstream>
+
+#include "core/Initializer.hpp"
+#include "core/Modules.hpp"
+#include "io/RunOutput.hpp"
+#include "physics/ContactForces.hpp"
+#include "physics/PlaneWalls.hpp"
+
+namespace cassini {
+
+Simulation::Simulation(const Config& c, MPI_Comm comm)
+    : cfg(c), domain(c, comm), halo(domain, 2 * c.max_radius() + c.skin) {
+  dt = cfg.dt;
+  skin = cfg.skin;
+  range = 2 * cfg.max_radius() + skin;  // largest a_i + a_j + skin
+  particles.rotation = cfg.friction();
+  particles.walls = static_cast<int>(domain_walls(cfg).size());
+}
+
+Simulation::~Simulation() = default;
+
+std::vector<std::string> Simulation::module_names() const {
+  std::vector<std::string> names;
+  for (const auto& m : modules) names.push_back(m->name());
+  return names;
+}
+
+void Simulation::setup() {
+  modules = make_modules(cfg, *this);
+  for (auto& m : modules) {
+    if (auto* c = dynamic_cast<ContactForces*>(m.get())) contact = c;
+    if (auto* w = dynamic_cast<PlaneWalls*>(m.get())) walls = w;
+    const unsigned s = m->stages();
+    for (int k = 0; k < 5; ++k)
+      if (s & (1u << k)) stage_[k].push_back(m.get());
+  }
+  if (particles.nlocal == 0 && particles.size() == 0) place_particles(cfg, domain, particles);
+  rebuild();
+  compute_forces();
+  for (auto& m : modules) m->setup(*this);
+}
+
+void Simulation::rebuild() {
+  for (Module* m : stage_[4]) m->pre_rebuild(*this);
+  halo.migrate(particles, history);
+  particles.permute_local(NeighborList::spatial_order(particles, domain, range));
+  halo.build_ghosts(particles);
+  neighbors.build(particles, domain, range, skin);
+  for (Module* m : stage_[4]) m->post_rebuild(*this);
+  for (std::size_t i = 0; i < particles.nlocal; ++i) particles.x_build[i] = particles.x[i];
+  shear_offset_at_build_ = domain.shear.offset;
+  ++rebuilds;
+}
+
+void Simulation::compute_forces() {
+  ParticleStore& p = particles;
+  std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
+  if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
+  for (Module* m : stage_[1]) m->force(*this);
+}
+
+void Simulation::raise_guard(const std::string& why) {
+  if (guard_message_.empty()) {
+    std::ostringstream os;
+    os << "guard tripped at step " << step_count << ", t = " << time << " s, rank " << domain.rank << ": " << why;
+    guard_message_ = os.str();
+  }
+}
+
+void Simulation::step() {
+  for (Module* m : stage_[0]) m->initial_integrate(*this);
+  ++step_count;
+  time = step_count * dt;  // from the step count: no accumulated round-off
+  if (domain.shear.enabled) domain.shear.offset = domain.shear.rate * domain.length[1] * time;
+
+  // One reduction per step decides both "rebuild?" and "did a guard trip last step?".
+  double local[2] = {0, guard_message_.empty() ? 0.0 : 1.0};
+  for (std::size_t i = 0; i < particles.nlocal; ++i)
+    local[0] = std::max(local[0], (particles.x[i] - particles.x_build[i]).squaredNorm());
+  if (!std::isfinite(local[0])) local[1] = 1;
+  double global[2];
+  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, domain.comm);
+  if (global[1] > 0) check_guards();
+  // Two particles (or a particle and a sheared image) may approach by at most this much.
+  const double approach = 2 * std::sqrt(global[0]) + std::abs(domain.shear.offset - shear_offset_at_build_);
+  if (approach > skin) rebuild();
+  else halo.update_ghosts(particles);
+
+  compute_forces();
+  for (Module* m : stage_[2]) m->final_integrate(*this);
+  for (Module* m : stage_[3]) m->end_of_step(*this);
+}
+
+void Simulation::check_guards() {
+  // Called collectively once some rank has a message: everyone stops with the messages.
+  int len = static_cast<int>(guard_message_.size());
+  std::vector<int> lens(domain.nranks);
+  MPI_Allgather(&len, 1, MPI_INT, lens.data(), 1, MPI_INT, domain.comm);
+  std::vector<int> displ(domain.nranks, 0);
+  int total = 0;
+  for (int r = 0; r < domain.nranks; ++r) { displ[r] = total; total += lens[r]; }
+  std::string all(total, ' ');
+  MPI_Allgatherv(guard_message_.data(), len, MPI_CHAR, all.data(), lens.data(), displ.data(), MPI_CHAR, domain.comm);
+  std::string msg;
+  for (int r = 0; r < domain.nranks; ++r)
+    if (lens[r] > 0) msg += (msg.empty() ? "" : "\n") + all.substr(displ[r], lens[r]);
+  throw GuardError(msg);
+}
+
+void Simulation::run(RunOutput* out) {
+  const long nsteps = std::lround(cfg.t_end / dt);
+  const long observe_every = std::max(1L, std::lround(cfg.observe_every / dt));
+  const long dump_every = cfg.dump_every > 0 ? std::max(1L, std::lround(cfg.dump_every / dt)) : 0;
+  const long n_total = total_particles();
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  auto last_print = t0;
+  long last_step = step_count;
+  if (out) {
+    out->observe(*this);
+    if (dump_every) out->dump(*this, "step");
+  }
+  while (step_count < nsteps) {
+    try {
+      step();
+    } catch (const GuardError&) {
+      if (out) out->dump(*this, "diagnostic");
+      throw;
+    }
+    if (out && step_count % observe_every == 0) out->observe(*this);
+    if (out && dump_every && step_count % dump_every == 0) out->dump(*this, "step");
+    if (out && (step_count & 63) == 0) {
+      const auto now = clock::now();
+      const double since = std::chrono::duration<double>(now - last_print).count();
+      int print = since >= cfg.progress_every;
+      MPI_Bcast(&print, 1, MPI_INT, 0, domain.comm);  // rank 0's clock decides, for everyone
+      if (print) {
+        const double rate = double(step_count - last_step) * n_total / since;
+        const double elapsed = std::chrono::duration<double>(now - t0).count();
+        const double eta = elapsed / step_count * (nsteps - step_count);
+        std::ostringstream os;
+        os.precision(4);
+        os << "step " << step_count << "/" << nsteps << "  t = " << time << " s  " << rate << " particle-steps/s  ETA "
+           << std::lround(eta) << " s";
+        out->log(os.str());
+        last_print = now;
+        last_step = step_count;
+      }
+    }
+  }
+  if (global_guard_pending()) check_guards();
+}
+
+bool Simulation::global_guard_pending() {
+  int local = guard_message_.empty() ? 0 : 1, any = 0;
+  MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_MAX, domain.comm);
+  return any != 0;
+}
+
+double Simulation::kinetic_energy() const {
+  const ParticleStore& p = particles;
+  double e = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    e += 0.5 * p.mass[i] * p.v[i].squaredNorm();
+    if (p.rotation) e += 0.5 / p.inv_inertia[i] * p.omega[i].squaredNorm();
+  }
+  double g = 0;
+  MPI_Allreduce(&e, &g, 1, MPI_DOUBLE, MPI_SUM, domain.comm);
+  return g;
+}
+
+double Simulation::elastic_energy() const {
+  const double e = contact ? contact->elastic_energy(*this) : 0.0;
+  double g = 0;
+  MPI_Allreduce(&e, &g, 1, MPI_DOUBLE, MPI_SUM, domain.comm);
+  return g;
+}
+
+Vec3 Simulation::momentum() const {
+  Vec3 m = Vec3::Zero(), g;
+  for (std::size_t i = 0; i < particles.nlocal; ++i) m += particles.mass[i] * particles.v[i];
+  MPI_Allreduce(m.data(), g.data(), 3, MPI_DOUBLE, MPI_SUM, domain.comm);
+  return g;
+}
+
+long Simulation::total_particles() const {
+  long n = static_cast<long>(particles.nlocal), g = 0;
+  MPI_Allreduce(&n, &g, 1, MPI_LONG, MPI_SUM, domain.comm);
+  return g;
+}
+
+}  // namespace cassini

@@ -1,0 +1,78 @@
+#pragma once
+// One rank's share of a run: the particle store, its slab, the halo, the neighbour list and
+// the active modules, and the step loop that calls the modules' stages in a fixed order.
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <mpi.h>
+
+#include "core/Config.hpp"
+#include "core/Module.hpp"
+#include "core/NeighborList.hpp"
+#include "core/ParticleStore.hpp"
+#include "parallel/Decomposition.hpp"
+#include "parallel/HaloExchange.hpp"
+
+namespace cassini {
+
+class ContactForces;
+class PlaneWalls;
+class RunOutput;
+
+// A guard tripped: every rank throws it on the same step (the verdict is reduced first).
+struct GuardError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class Simulation {
+ public:
+  Simulation(const Config& cfg, MPI_Comm comm);
+  ~Simulation();
+
+  // Places the initial particles (or takes `initial` if given), builds the first halo and
+  // neighbour list and evaluates F(0).
+  void setup();
+  void step();
+  // Steps to cfg.t_end; with `out`, prints progress and writes observables and dumps.
+  void run(RunOutput* out = nullptr);
+
+  // Collective reductions over all ranks.
+  double kinetic_energy() const;   // translational + rotational
+  double elastic_energy() const;   // contact springs
+  Vec3 momentum() const;
+  long total_particles() const;
+
+  // Records that a guard tripped on this rank; the step loop stops all ranks together.
+  void raise_guard(const std::string& why);
+
+  Config cfg;
+  Decomposition domain;
+  ParticleStore particles;
+  NeighborList neighbors;
+  HaloExchange halo;
+  std::vector<HistoryEntry> history;  // tangential springs in transit during a rebuild
+
+  double dt = 0, time = 0;
+  long step_count = 0;
+  double range = 0, skin = 0;
+  long rebuilds = 0;
+
+  std::vector<std::unique_ptr<Module>> modules;
+  ContactForces* contact = nullptr;  // convenience views into `modules` (may be null)
+  PlaneWalls* walls = nullptr;
+
+  std::vector<std::string> module_names() const;
+
+ private:
+  void rebuild();
+  void compute_forces();
+  void check_guards();
+  bool global_guard_pending();
+  std::vector<Module*> stage_[5];
+  std::string guard_message_;
+  double shear_offset_at_build_ = 0;
+};
+
+}  // namespace cassini

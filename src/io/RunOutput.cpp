@@ -1,0 +1,114 @@
+#include "io/RunOutput.hpp"
+
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "core/CaseFile.hpp"
+#include "core/Simulation.hpp"
+#include "physics/ContactForces.hpp"
+
+namespace fs = std::filesystem;
+
+namespace cassini {
+
+RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm) : dir_(dir), comm_(comm) {
+  MPI_Comm_rank(comm, &rank_);
+  std::string error;
+  if (rank_ == 0) {
+    std::error_code ec;
+    if (fs::exists(dir) && !fs::is_empty(dir)) {
+      if (!force) error = "output directory '" + dir + "' exists and is not empty: choose another --out or pass --force";
+      else fs::remove_all(dir, ec);
+    }
+    if (error.empty()) {
+      fs::create_directories(dir + "/dump", ec);
+      if (ec) error = "cannot create output directory '" + dir + "': " + ec.message();
+    }
+  }
+  int len = static_cast<int>(error.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, comm);
+  error.resize(len);
+  MPI_Bcast(error.data(), len, MPI_CHAR, 0, comm);
+  if (!error.empty()) throw ConfigError(error);
+  if (rank_ == 0) {
+    log_.open(dir + "/run.log");
+    obs_.open(dir + "/observables.csv");
+    obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,contacts,max_overlap_over_radius\n";
+  }
+}
+
+void RunOutput::log(const std::string& line) {
+  if (rank_ != 0) return;
+  std::cout << line << std::endl;
+  log_ << line << "\n";
+  log_.flush();
+}
+
+void RunOutput::write_text(const std::string& name, const std::string& text) {
+  if (rank_ != 0) return;
+  std::ofstream(dir_ + "/" + name) << text;
+}
+
+void RunOutput::observe(Simulation& sim) {
+  const double ke = sim.kinetic_energy(), pe = sim.elastic_energy();
+  const Vec3 p = sim.momentum();
+  const long n = sim.total_particles();
+  double local[2] = {sim.contact ? double(sim.contact->contacts()) : 0.0, 0.0};
+  double overlap = sim.contact ? sim.contact->max_overlap_fraction() : 0.0, max_overlap = 0;
+  double contacts = 0;
+  MPI_Allreduce(&local[0], &contacts, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  MPI_Allreduce(&overlap, &max_overlap, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  if (rank_ != 0) return;
+  obs_ << std::setprecision(12) << sim.step_count << "," << sim.time << "," << n << "," << ke << "," << pe << ","
+       << p[0] << "," << p[1] << "," << p[2] << "," << contacts / 2 << "," << max_overlap << "\n";
+  obs_.flush();
+}
+
+void RunOutput::dump(const Simulation& sim, const std::string& tag) {
+  const ParticleStore& p = sim.particles;
+  std::ostringstream name;
+  name << dir_ << "/dump/" << tag << "_" << std::setw(9) << std::setfill('0') << sim.step_count << ".rank" << rank_
+       << ".txt";
+  // Written under a temporary name and renamed: a crash never leaves a complete-looking dump.
+  const std::string tmp = name.str() + ".partial";
+  {
+    std::ofstream out(tmp);
+    out << "# step " << sim.step_count << " time " << std::setprecision(17) << sim.time << "\n";
+    out << "# id species radius x y z vx vy vz\n";
+    for (std::size_t i = 0; i < p.nlocal; ++i)
+      out << p.id[i] << " " << p.species[i] << " " << p.radius[i] << " " << p.x[i][0] << " " << p.x[i][1] << " "
+          << p.x[i][2] << " " << p.v[i][0] << " " << p.v[i][1] << " " << p.v[i][2] << "\n";
+  }
+  fs::rename(tmp, name.str());
+}
+
+void RunOutput::summary(Simulation& sim, double wall, long steps) {
+  const double ke = sim.kinetic_energy();
+  const long n = sim.total_particles();
+  const double mine = wall > 0 ? double(sim.particles.nlocal) * steps / wall : 0.0;
+  std::vector<double> rates(sim.domain.nranks);
+  MPI_Gather(&mine, 1, MPI_DOUBLE, rates.data(), 1, MPI_DOUBLE, 0, comm_);
+  if (rank_ != 0) return;
+  std::ostringstream js;
+  js << std::setprecision(10) << "{\n"
+     << "  \"case\": \"" << sim.cfg.source << "\",\n"
+     << "  \"ranks\": " << sim.domain.nranks << ",\n"
+     << "  \"steps\": " << steps << ",\n"
+     << "  \"final_step\": " << sim.step_count << ",\n"
+     << "  \"simulated_time\": " << sim.time << ",\n"
+     << "  \"dt\": " << sim.dt << ",\n"
+     << "  \"particles\": " << n << ",\n"
+     << "  \"wall_seconds\": " << wall << ",\n"
+     << "  \"particle_steps_per_second\": " << (wall > 0 ? double(n) * steps / wall : 0.0) << ",\n"
+     << "  \"particle_steps_per_second_per_rank\": [";
+  for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << rates[r];
+  js << "],\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"active_modules\": [";
+  const auto names = sim.module_names();
+  for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << "\"" << names[k] << "\"";
+  js << "],\n  \"final_kinetic_energy\": " << ke << "\n}\n";
+  write_text("summary.json", js.str());
+}
+
+}  // namespace cassini

@@ -1,0 +1,228 @@
+#include "parallel/HaloExchange.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+namespace cassini {
+namespace {
+
+double id_bits(std::int64_t id) {
+  double d;
+  std::memcpy(&d, &id, sizeof d);
+  return d;
+}
+std::int64_t bits_id(double d) {
+  std::int64_t id;
+  std::memcpy(&id, &d, sizeof id);
+  return id;
+}
+
+}  // namespace
+
+Vec3 HaloExchange::shift(const Image& im) const {
+  Vec3 s(im.k[0] * dom_.length[0], im.k[1] * dom_.length[1], im.k[2] * dom_.length[2]);
+  // Offset relative to its wrap at the last build, so an image does not jump by Lx when the
+  // offset wraps between rebuilds.
+  if (dom_.shear.enabled) s[0] += im.k[1] * (dom_.shear.offset - shear_base_);
+  return s;
+}
+
+double HaloExchange::shear_velocity(const Image& im) const {
+  return dom_.shear.enabled ? im.k[1] * dom_.shear.rate * dom_.length[1] : 0.0;
+}
+
+void HaloExchange::exchange(std::vector<std::vector<double>>& out, std::vector<double>& in,
+                            const std::vector<int>* known) {
+  const int n = dom_.nranks;
+  std::vector<int> scount(n), rcount(n), sdispl(n), rdispl(n);
+  std::vector<double> sendbuf;
+  for (int r = 0; r < n; ++r) {
+    scount[r] = static_cast<int>(out[r].size());
+    sdispl[r] = static_cast<int>(sendbuf.size());
+    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
+  }
+  if (known) rcount = *known;
+  else MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, dom_.comm);
+  int total = 0;
+  for (int r = 0; r < n; ++r) {
+    rdispl[r] = total;
+    total += rcount[r];
+  }
+  in.resize(total);
+  MPI_Alltoallv(sendbuf.data(), scount.data(), sdispl.data(), MPI_DOUBLE, in.data(), rcount.data(),
+                rdispl.data(), MPI_DOUBLE, dom_.comm);
+}
+
+void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history) {
+  p.resize(p.nlocal);  // drop ghosts
+  std::sort(history.begin(), history.end(), [](const HistoryEntry& a, const HistoryEntry& b) {
+    return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
+  });
+  std::vector<std::vector<double>> out(dom_.nranks);
+  const Vec3 L = dom_.length;
+  for (std::size_t i = p.nlocal; i-- > 0;) {
+    Vec3& x = p.x[i];
+    bool gone = false;
+    if (dom_.shear.enabled) {  // crossing the sheared boundary: shift x, jump vx
+      const double off = dom_.shear.wrapped(L[0]), dv = dom_.shear.rate * L[1];
+      if (x[1] >= dom_.hi[1]) { x[1] -= L[1]; x[0] -= off; p.v[i][0] -= dv; }
+      else if (x[1] < dom_.lo[1]) { x[1] += L[1]; x[0] += off; p.v[i][0] += dv; }
+    }
+    for (int d = 0; d < dom_.dims; ++d) {
+      if (dom_.periodic(d)) {
+        x[d] -= L[d] * std::floor((x[d] - dom_.lo[d]) / L[d]);
+        if (x[d] >= dom_.hi[d]) x[d] = dom_.lo[d];  // round-off at the upper face
+      } else if (dom_.boundary[d] == Boundary::Open && (x[d] < dom_.lo[d] || x[d] >= dom_.hi[d])) {
+        gone = true;
+      }
+    }
+    const int dest = dom_.owner(x[dom_.axis]);
+    if (gone || dest != dom_.rank) {
+      if (!gone) {
+        auto& buf = out[dest];
+        p.pack(i, buf);
+        auto [b, e] = std::equal_range(history.begin(), history.end(), HistoryEntry{p.id[i], 0, {}},
+                                       [](const HistoryEntry& a, const HistoryEntry& c) { return a.owner < c.owner; });
+        buf.push_back(static_cast<double>(e - b));
+        for (auto h = b; h != e; ++h) {
+          buf.push_back(id_bits(h->partner));
+          buf.insert(buf.end(), h->xi.data(), h->xi.data() + 3);
+        }
+      } else {
+        ++removed;
+      }
+      const std::size_t last = p.nlocal - 1;
+      if (i != last) p.copy(last, i);
+      p.nlocal = last;
+      p.resize(last);
+    }
+  }
+  std::vector<double> in;
+  exchange(out, in);
+  for (std::size_t o = 0; o < in.size();) {
+    o = p.unpack(in, o);
+    const std::int64_t owner = p.id[p.size() - 1];
+    const auto nh = static_cast<std::size_t>(in[o++]);
+    for (std::size_t h = 0; h < nh; ++h, o += 4)
+      history.push_back({owner, bits_id(in[o]), Vec3(in[o + 1], in[o + 2], in[o + 3])});
+    p.nlocal = p.size();
+  }
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (dom_.owner(p.x[i][dom_.axis]) != dom_.rank)
+      throw std::runtime_error("particle " + std::to_string(p.id[i]) +
+                               " landed outside its slab after migration (moved more than the box in one rebuild interval)");
+}
+
+void HaloExchange::build_ghosts(ParticleStore& p) {
+  p.resize(p.nlocal);
+  send_.assign(dom_.nranks, {});
+  const Vec3 L = dom_.length;
+  const int a = dom_.axis;
+  const bool sheared = dom_.shear.enabled;
+  const double off = sheared ? dom_.shear.wrapped(L[0]) : 0.0;
+  shear_base_ = dom_.shear.offset - off;
+
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Vec3& x = p.x[i];
+    // Candidate image shifts per axis: 0, plus one box length when near a periodic face.
+    std::int8_t cand[3][6];
+    int nc[3];
+    for (int d = 0; d < 3; ++d) {
+      nc[d] = 0;
+      cand[d][nc[d]++] = 0;
+      if (d >= dom_.dims) continue;
+      if (dom_.periodic(d) || (sheared && d == 1)) {
+        if (x[d] < dom_.lo[d] + range_) cand[d][nc[d]++] = 1;
+        if (x[d] >= dom_.hi[d] - range_) cand[d][nc[d]++] = -1;
+      }
+    }
+    for (int iy = 0; iy < nc[1]; ++iy) {
+      const std::int8_t ky = cand[1][iy];
+      // A sheared image's x moves by the offset, so it may need any x wrap to land near the box.
+      std::int8_t kxs[6];
+      int nkx = 0;
+      if (sheared && ky != 0) {
+        for (int kx = -2; kx <= 2; ++kx) {
+          const double xi = x[0] + ky * off + kx * L[0];
+          if (xi >= dom_.lo[0] - range_ && xi < dom_.hi[0] + range_) kxs[nkx++] = static_cast<std::int8_t>(kx);
+        }
+      } else {
+        for (int ix = 0; ix < nc[0]; ++ix) kxs[nkx++] = cand[0][ix];
+      }
+      for (int ix = 0; ix < nkx; ++ix)
+        for (int iz = 0; iz < nc[2]; ++iz) {
+          Image im{static_cast<std::uint32_t>(i), {kxs[ix], ky, cand[2][iz]}};
+          const double ya = x[a] + shift(im)[a];
+          const int r0 = dom_.owner(ya - range_), r1 = dom_.owner(ya + range_);
+          for (int r = r0; r <= r1; ++r) {
+            if (r == dom_.rank && im.k[0] == 0 && im.k[1] == 0 && im.k[2] == 0) continue;
+            if (ya >= dom_.cuts[r] - range_ && ya < dom_.cuts[r + 1] + range_) send_[r].push_back(im);
+          }
+        }
+    }
+  }
+
+  // First exchange carries the full description of each ghost; later ones only the motion.
+  std::vector<std::vector<double>> out(dom_.nranks);
+  for (int r = 0; r < dom_.nranks; ++r)
+    for (const Image& im : send_[r]) {
+      const std::size_t i = im.index;
+      auto& b = out[r];
+      const Vec3 xs = p.x[i] + shift(im);
+      b.insert(b.end(), {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
+                         p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2]});
+      if (p.rotation) b.insert(b.end(), p.omega[i].data(), p.omega[i].data() + 3);
+    }
+  std::vector<double> in;
+  exchange(out, in);
+  const std::size_t width = 10 + (p.rotation ? 3 : 0);
+  const std::size_t n = in.size() / width;
+  // Remember the receive sizes of the per-step update; one more Alltoall gives them.
+  std::vector<int> scount(dom_.nranks);
+  for (int r = 0; r < dom_.nranks; ++r) scount[r] = static_cast<int>(send_[r].size());
+  recv_ghosts_.assign(dom_.nranks, 0);
+  MPI_Alltoall(scount.data(), 1, MPI_INT, recv_ghosts_.data(), 1, MPI_INT, dom_.comm);
+  recv_doubles_.resize(dom_.nranks);
+  for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0));
+  p.resize(p.nlocal + n);
+  for (std::size_t g = 0; g < n; ++g) {
+    const double* b = &in[g * width];
+    const std::size_t j = p.nlocal + g;
+    p.id[j] = bits_id(b[0]);
+    p.species[j] = static_cast<std::int32_t>(b[1]);
+    p.radius[j] = b[2];
+    p.mass[j] = b[3];
+    p.inv_mass[j] = 1.0 / b[3];
+    p.x[j] = Vec3(b[4], b[5], b[6]);
+    p.v[j] = Vec3(b[7], b[8], b[9]);
+    if (p.rotation) p.omega[j] = Vec3(b[10], b[11], b[12]);
+  }
+  out_.assign(dom_.nranks, {});
+}
+
+void HaloExchange::update_ghosts(ParticleStore& p) {
+  const std::size_t width = 6 + (p.rotation ? 3 : 0);
+  for (int r = 0; r < dom_.nranks; ++r) {
+    auto& b = out_[r];
+    b.resize(send_[r].size() * width);
+    double* q = b.data();
+    for (const Image& im : send_[r]) {
+      const std::size_t i = im.index;
+      const Vec3 xs = p.x[i] + shift(im);
+      q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
+      q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
+      if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
+      q += width;
+    }
+  }
+  exchange(out_, in_, &recv_doubles_);
+  const double* b = in_.data();
+  for (std::size_t j = p.nlocal; j < p.size(); ++j, b += width) {
+    p.x[j] = Vec3(b[0], b[1], b[2]);
+    p.v[j] = Vec3(b[3], b[4], b[5]);
+    if (p.rotation) p.omega[j] = Vec3(b[6], b[7], b[8]);
+  }
+}
+
+}  // namespace cassini

@@ -1,0 +1,62 @@
+#pragma once
+// Moving particles between ranks, and the ghost halo.
+//
+// Ghosts are made in one pass over the owned particles: for each periodic (or sheared) image
+// of a particle near the box faces, every rank whose slab, widened by the interaction range,
+// holds the image receives a copy. This one rule covers the plain neighbour slab, periodic
+// wrap-around, edges and corners, slabs thinner than the range, and the Lees-Edwards case in
+// which the ranks facing a slab across the sheared boundary change as the offset grows.
+// What was sent is remembered as (particle, image) pairs, so each step only positions and
+// velocities are re-sent, with the image shift recomputed from the current shear offset.
+#include <cstdint>
+#include <vector>
+
+#include "core/ParticleStore.hpp"
+#include "parallel/Decomposition.hpp"
+
+namespace cassini {
+
+// Tangential-spring history of one contact, carried across rebuilds and migrations.
+struct HistoryEntry {
+  std::int64_t owner, partner;
+  Vec3 xi;
+};
+
+class HaloExchange {
+ public:
+  HaloExchange(Decomposition& dom, double range) : dom_(dom), range_(range) {}
+
+  // Wraps owned particles into the box (periodic and sheared axes) and sends every particle
+  // to the rank owning its slab, with its contact history. Particles past an open boundary are
+  // removed and counted in `removed`.
+  void migrate(ParticleStore& p, std::vector<HistoryEntry>& history);
+  // Rebuilds the ghost region from scratch (owned particles must be inside their slab).
+  void build_ghosts(ParticleStore& p);
+  // Refreshes ghost positions, velocities and spins from their owners.
+  void update_ghosts(ParticleStore& p);
+
+  std::int64_t removed = 0;
+
+ private:
+  struct Image {
+    std::uint32_t index;  // owned particle
+    std::int8_t k[3];     // image shift in box lengths per axis
+  };
+  Vec3 shift(const Image& im) const;
+  double shear_velocity(const Image& im) const;
+  // Alltoallv of per-rank buffers. With `rcount` given, the receive sizes are known and the
+  // count exchange is skipped (the per-step ghost update).
+  void exchange(std::vector<std::vector<double>>& out, std::vector<double>& in,
+                const std::vector<int>* rcount = nullptr);
+
+  Decomposition& dom_;
+  double range_;
+  std::vector<std::vector<Image>> send_;  // per destination rank
+  std::vector<int> recv_ghosts_;          // ghosts received per source rank
+  std::vector<int> recv_doubles_;         // per-step update message sizes
+  double shear_base_ = 0;                 // offset - wrapped offset at the last build
+  std::vector<std::vector<double>> out_;
+  std::vector<double> in_;
+};
+
+}  // namespace cassini

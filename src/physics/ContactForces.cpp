@@ -1,0 +1,98 @@
+#include "physics/ContactForces.hpp"
+
+#include <algorithm>
+
+#include "core/Simulation.hpp"
+
+namespace cassini {
+
+void ContactForces::force(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  const bool fric = law_.friction();
+  if (fric && xi_.size() != nl.size()) xi_.assign(nl.size(), Vec3::Zero());
+  long contacts = 0;
+  double worst = 0;
+  std::int64_t worst_id = -1;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Vec3 xi = p.x[i], vi = p.v[i];
+    const double ai = p.radius[i], mi = p.mass[i];
+    const int si = p.species[i];
+    Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero();
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const Vec3 d = xi - p.x[j];
+      const double r2 = d.squaredNorm(), R = ai + p.radius[j];
+      if (r2 >= R * R) {
+        if (fric) xi_[k].setZero();
+        continue;
+      }
+      const double r = std::sqrt(r2);
+      const Vec3 n = d / r;
+      const double delta = R - r;
+      const double mj = p.mass[j];
+      const double m = mi * mj / (mi + mj);
+      Vec3 vrel = vi - p.v[j];
+      if (fric) vrel -= (ai * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);
+      Vec3 ft;
+      fsum += law_.force(law_.law(si, p.species[j]), m, delta, n, vrel, fric ? &xi_[k] : nullptr, ft);
+      if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
+      ++contacts;
+      const double frac = delta / std::min(ai, p.radius[j]);
+      if (frac > worst) { worst = frac; worst_id = p.id[i]; }
+    }
+    p.f[i] += fsum;
+    if (fric) p.torque[i] += tsum;
+  }
+  contacts_ = contacts;
+  max_overlap_ = worst;
+  worst_id_ = worst_id;
+}
+
+double ContactForces::elastic_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  double e = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double R = p.radius[i] + p.radius[j], r = (p.x[i] - p.x[j]).norm();
+      if (r >= R) continue;
+      const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+      const PairLaw& L = law_.law(p.species[i], p.species[j]);
+      e += 0.25 * m * L.k_per_mass * (R - r) * (R - r);  // 1/2 k delta^2, half per side
+      if (law_.friction()) e += 0.25 * L.kt_ratio * m * L.k_per_mass * xi_[k].squaredNorm();
+    }
+  return e;
+}
+
+void ContactForces::pre_rebuild(Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  auto& stash = sim.history;
+  stash.clear();
+  if (xi_.size() != nl.size()) return;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k)
+      if (!xi_[k].isZero(0)) stash.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});
+}
+
+void ContactForces::post_rebuild(Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  auto& stash = sim.history;
+  xi_.assign(nl.size(), Vec3::Zero());
+  auto before = [](const HistoryEntry& a, const HistoryEntry& b) {
+    return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
+  };
+  std::sort(stash.begin(), stash.end(), before);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const HistoryEntry key{p.id[i], p.id[nl.partner[k]], {}};
+      auto it = std::lower_bound(stash.begin(), stash.end(), key, before);
+      if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) xi_[k] = it->xi;
+    }
+  stash.clear();
+}
+
+}  // namespace cassini

@@ -1,0 +1,36 @@
+#pragma once
+// Particle-particle contacts: the linear spring-dashpot law over the neighbour list.
+// Owns the tangential history (one spring per list entry, only when friction is on) and
+// carries it across rebuilds and migrations by (owner id, partner id).
+#include <vector>
+
+#include "core/Module.hpp"
+#include "physics/LinearSpringDashpot.hpp"
+
+namespace cassini {
+
+class ContactForces : public Module {
+ public:
+  ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
+  std::string name() const override { return law_.friction() ? "contact (LSD + friction)" : "contact (LSD)"; }
+  unsigned stages() const override { return kForce | (law_.friction() ? kRebuild : 0u); }
+
+  void force(Simulation& sim) override;
+  void pre_rebuild(Simulation& sim) override;
+  void post_rebuild(Simulation& sim) override;
+
+  // Diagnostics of the last force evaluation (this rank).
+  long contacts() const { return contacts_; }               // pairs in contact, each counted once per owned side
+  double max_overlap_fraction() const { return max_overlap_; }  // max delta / min(a_i, a_j)
+  std::int64_t worst_id() const { return worst_id_; }
+  double elastic_energy(const Simulation& sim) const;       // sum 1/2 k delta^2 over this rank's owned sides / 2
+
+ private:
+  LinearSpringDashpot law_;
+  std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
+  long contacts_ = 0;
+  double max_overlap_ = 0;
+  std::int64_t worst_id_ = -1;
+};
+
+}  // namespace cassini

@@ -1,0 +1,51 @@
+#include "physics/Guards.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "core/Simulation.hpp"
+#include "physics/ContactForces.hpp"
+#include "physics/PlaneWalls.hpp"
+
+namespace cassini {
+
+void Guards::setup(Simulation& sim) { ke0_ = sim.kinetic_energy(); }
+
+void Guards::end_of_step(Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  std::ostringstream why;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!p.x[i].allFinite() || !p.v[i].allFinite() || (p.rotation && !p.omega[i].allFinite())) {
+      why << "non-finite position or velocity of particle " << p.id[i];
+      break;
+    }
+    for (int d = 0; d < sim.domain.dims; ++d) {
+      // Past a wall by more than a radius: it tunnelled through.
+      if (sim.domain.boundary[d] == Boundary::Wall &&
+          (p.x[i][d] < sim.domain.lo[d] - p.radius[i] || p.x[i][d] > sim.domain.hi[d] + p.radius[i])) {
+        why << "particle " << p.id[i] << " left the domain through the wall on axis " << "xyz"[d];
+        break;
+      }
+    }
+    if (!why.str().empty()) break;
+  }
+  if (why.str().empty() && sim.contact && sim.contact->max_overlap_fraction() > max_overlap_)
+    why << "overlap of " << sim.contact->max_overlap_fraction() << " radii at particle " << sim.contact->worst_id()
+        << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
+  if (why.str().empty() && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
+    why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
+  if (!why.str().empty()) sim.raise_guard(why.str());
+
+  // Kinetic energy growth (collective: every rank takes this branch on the same steps).
+  if (!energy_source_ && ke0_ > 0 && sim.step_count % 100 == 0) {
+    const double ke = sim.kinetic_energy();
+    if (ke > energy_growth_ * ke0_) {
+      std::ostringstream os;
+      os << "kinetic energy grew by a factor " << ke / ke0_ << " > guards.energy_growth = " << energy_growth_
+         << " with no energy source in the scene";
+      sim.raise_guard(os.str());
+    }
+  }
+}
+
+}  // namespace cassini

@@ -1,0 +1,27 @@
+#pragma once
+// Numerical guards: the run stops, with the step, time, particle id, rank and cause, rather
+// than running on with NaN, runaway overlaps, exploding energy or lost particles.
+// Checks are local and cheap (one pass over owned particles per step); the verdict is
+// combined across ranks in the step loop's existing reduction, so every rank stops together.
+#include <string>
+
+#include "core/Module.hpp"
+
+namespace cassini {
+
+class Guards : public Module {
+ public:
+  Guards(double max_overlap, double energy_growth, bool energy_source)
+      : max_overlap_(max_overlap), energy_growth_(energy_growth), energy_source_(energy_source) {}
+  std::string name() const override { return "guards"; }
+  unsigned stages() const override { return kEndOfStep; }
+  void setup(Simulation& sim) override;
+  void end_of_step(Simulation& sim) override;
+
+ private:
+  double max_overlap_, energy_growth_;
+  bool energy_source_;
+  double ke0_ = 0;
+};
+
+}  // namespace cassini

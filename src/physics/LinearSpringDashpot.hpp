@@ -1,0 +1,96 @@
+#pragma once
+// Linear spring-dashpot contact law of spec section 1, parametrised by contact time t_c and
+// restitution e through the reduced mass m_ij:
+//   eta = -ln(e)/t_c, omega = pi/t_c, k = m_ij (omega^2 + eta^2), gamma = 2 m_ij eta,
+// so that a free binary collision lasts exactly t_c and returns exactly e. The normal force
+// is f_n = k delta - gamma v_n; by default it may pull slightly at the end of a contact (that
+// is what the exact relations assume). clip_normal = true clips it at zero, which makes the
+// effective restitution larger than e (noticeably for small e).
+//
+// Tangential (only when friction is on): spring xi with history, f_t = -k_t xi - gamma_t v_t,
+// capped by Coulomb (|f_t| <= mu_s f_n static; on sliding |f_t| = mu_d f_n and xi reset so
+// that k_t |xi| = mu_d f_n).
+//
+// Every operation is written so that evaluating the pair from j's side gives exactly the
+// negated result (bitwise): the force on each side is computed independently.
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "core/Vec3.hpp"
+
+namespace cassini {
+
+struct PairLaw {
+  double k_per_mass;      // omega^2 + eta^2
+  double gamma_per_mass;  // 2 eta
+  double kt_ratio, gammat_ratio, mu_s, mu_d;
+};
+
+class LinearSpringDashpot {
+ public:
+  LinearSpringDashpot(const Config& cfg, double dt) : n_(static_cast<int>(cfg.species.size())), dt_(dt) {
+    clip_ = cfg.clip_normal;
+    friction_ = cfg.friction();
+    table_.resize(n_ * n_);
+    for (int a = 0; a < n_; ++a)
+      for (int b = 0; b < n_; ++b) {
+        const Species& s = cfg.species[a];
+        const Species& t = cfg.species[b];
+        // Unlike pairs: mean contact time and restitution (a [[pair]] override is future work).
+        const double tc = 0.5 * (s.t_c + t.t_c), e = 0.5 * (s.e + t.e);
+        const double eta = -std::log(e) / tc, omega = std::numbers::pi / tc;
+        table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, 0.5 * (s.kt_ratio + t.kt_ratio),
+                              0.5 * (s.gammat_ratio + t.gammat_ratio), std::min(s.mu_s, t.mu_s),
+                              std::min(s.mu_d, t.mu_d)};
+      }
+  }
+
+  const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
+  bool friction() const { return friction_; }
+
+  // Force on body i. n: unit normal pointing from the partner to i; delta: overlap;
+  // vrel: velocity of i's contact point relative to the partner's; m: reduced mass.
+  // Returns the total force; ft receives the tangential part (for the torque).
+  Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi, Vec3& ft) const {
+    const double vn = vrel.dot(n);
+    double fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
+    if (clip_ && fn < 0) fn = 0;
+    Vec3 f = fn * n;
+    if (!xi) {
+      ft.setZero();
+      return f;
+    }
+    const Vec3 vt = vrel - vn * n;
+    // Keep the spring in the current tangent plane, preserving its length.
+    const double len = xi->norm();
+    Vec3 s = *xi - n.dot(*xi) * n;
+    const double slen = s.norm();
+    if (slen > 0) s *= len / slen;
+    s += vt * dt_;
+    const double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
+    ft = -kt * s - gt * vt;
+    const double fcap = std::max(fn, 0.0);
+    const double ftn = ft.norm();
+    if (ftn > L.mu_s * fcap) {
+      if (ftn > 0) {
+        const Vec3 dir = ft / ftn;
+        ft = (L.mu_d * fcap) * dir;
+        s = -(L.mu_d * fcap / kt) * dir;
+      } else {
+        s.setZero();
+      }
+    }
+    *xi = s;
+    return f + ft;
+  }
+
+ private:
+  int n_;
+  double dt_;
+  bool clip_ = false, friction_ = false;
+  std::vector<PairLaw> table_;
+};
+
+}  // namespace cassini

@@ -1,0 +1,36 @@
+#pragma once
+// Flat walls: the domain faces declared "wall" in domain.boundary. A particle touching a wall
+// feels the same LSD law as a particle-particle contact with the wall as an infinite mass
+// (m_ij = m_i), using the particle's own species parameters. Each (particle, wall) keeps its
+// own tangential spring, stored with the particle so it migrates with it.
+#include <vector>
+
+#include "core/Module.hpp"
+#include "physics/LinearSpringDashpot.hpp"
+
+namespace cassini {
+
+struct Plane {
+  Vec3 point;
+  Vec3 normal;  // unit, pointing into the domain
+};
+
+class PlaneWalls : public Module {
+ public:
+  PlaneWalls(const Config& cfg, double dt);
+  std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
+  unsigned stages() const override { return kForce; }
+  void force(Simulation& sim) override;
+  const std::vector<Plane>& planes() const { return planes_; }
+  double max_overlap_fraction() const { return max_overlap_; }
+
+ private:
+  LinearSpringDashpot law_;
+  std::vector<Plane> planes_;
+  double max_overlap_ = 0;
+};
+
+// Wall planes implied by a case's domain boundaries (used to size per-particle history).
+std::vector<Plane> domain_walls(const Config& cfg);
+
+}  // namespace cassini
