@@ -159,8 +159,8 @@ Config read_config(CaseFile& f) {
   } else if (c.init == "file") {
     c.init_file = f.string("particles.file");
     if (!c.init_file.empty() && c.init_file[0] != '/') c.init_file = f.directory() + "/" + c.init_file;
-  } else {
-    f.fail("particles.init", "\"random\", \"lattice\" or \"file\"");
+  } else if (c.init != "none") {  // "none": no initial particles (programmatic use, tests)
+    f.fail("particles.init", "\"random\", \"lattice\", \"file\" or \"none\"");
   }
 
   // ---- output

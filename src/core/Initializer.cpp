@@ -179,6 +179,7 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
   std::vector<Candidate> cands;
   std::vector<Vec3> velocities;
   std::vector<int> species;
+  if (cfg.init == "none") return;
   if (cfg.init == "file") {
     std::ifstream in(cfg.init_file);
     if (!in) throw ConfigError(cfg.source + ": key 'particles.file': cannot open '" + cfg.init_file + "'");

@@ -40,7 +40,8 @@ void Simulation::setup() {
     for (int k = 0; k < 5; ++k)
       if (s & (1u << k)) stage_[k].push_back(m.get());
   }
-  if (particles.nlocal == 0 && particles.size() == 0) place_particles(cfg, domain, particles);
+  if (particles.size() == 0) place_particles(cfg, domain, particles);
+  particles.nlocal = particles.size();
   rebuild();
   compute_forces();
   for (auto& m : modules) m->setup(*this);

@@ -71,7 +71,7 @@ void ContactForces::pre_rebuild(Simulation& sim) {
   const NeighborList& nl = sim.neighbors;
   auto& stash = sim.history;
   stash.clear();
-  if (xi_.size() != nl.size()) return;
+  if (nl.start.size() != p.nlocal + 1 || xi_.size() != nl.size()) return;  // no list yet
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k)
       if (!xi_[k].isZero(0)) stash.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});

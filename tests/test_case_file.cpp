@@ -1,0 +1,104 @@
+// Bad input must stop with an error naming the file, the key and what was expected.
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "TestScene.hpp"
+
+using namespace cassini;
+using namespace cassini::test;
+
+namespace {
+
+const char* kGood = R"(
+seed = 3
+modules = ["contact"]
+[domain]
+lo = [0.0, 0.0, 0.0]
+hi = [0.02, 0.02, 0.02]
+[[species]]
+name = "glass"
+density = 2500.0
+radius = 0.0005
+t_c = 1.0e-5
+e = 0.9
+[particles]
+init = "random"
+count = 500
+[time]
+end = 1.0e-4
+)";
+
+// Returns the error message of reading kGood with the overrides ("" when it was accepted).
+std::string error_of(const std::vector<std::string>& overrides, const std::string& text = kGood) {
+  try {
+    Config c = config_from(text, overrides);
+    Simulation sim(c, MPI_COMM_SELF);
+    sim.setup();  // placement errors (N that cannot fit) surface here
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void expect_error(const std::vector<std::string>& overrides, const std::string& key, const std::string& expected) {
+  const std::string msg = error_of(overrides);
+  EXPECT_NE(msg.find("test.toml"), std::string::npos) << "no file name in: " << msg;
+  EXPECT_NE(msg.find(key), std::string::npos) << "no key '" << key << "' in: " << msg;
+  EXPECT_NE(msg.find(expected), std::string::npos) << "no '" << expected << "' in: " << msg;
+}
+
+}  // namespace
+
+TEST(CaseFile, GoodCaseIsAccepted) { EXPECT_EQ(error_of({}), ""); }
+
+TEST(CaseFile, ImpossibleValuesAreRefused) {
+  expect_error({"species.0.radius=-1.0"}, "species[0].radius", "expected a positive number, got -1");
+  expect_error({"species.0.e=1.5"}, "species[0].e", "(0, 1]");
+  expect_error({"species.0.e=0.0"}, "species[0].e", "(0, 1]");
+  expect_error({"species.0.density=0"}, "species[0].density", "positive");
+  expect_error({"species.0.mu_s=0.2", "species.0.mu_d=0.5"}, "species[0].mu_d", "<= mu_s");
+  expect_error({"domain.hi=[0.02, -1.0, 0.02]"}, "domain.hi", "larger than domain.lo");
+  expect_error({"domain.boundary=[\"periodic\", \"sticky\", \"wall\"]"}, "domain.boundary", "\"periodic\", \"wall\" or \"open\"");
+}
+
+TEST(CaseFile, TimeStepAboveTenthOfContactTimeNeedsForce) {
+  expect_error({"time.dt=2.0e-6"}, "time.dt", "t_c/10");
+  expect_error({"time.n_c=5"}, "time.n_c", "time.force = true");
+  EXPECT_EQ(error_of({"time.dt=2.0e-6", "time.force=true"}), "");
+  // Beyond the stability bound of the integrator even force does not help.
+  expect_error({"time.dt=7.0e-6", "time.force=true"}, "time.dt", "unstable");
+}
+
+TEST(CaseFile, WrongTypesAreRefused) {
+  expect_error({"species.0.t_c=\"fast\""}, "species[0].t_c", "expected a number, got the string \"fast\"");
+  expect_error({"particles.count=12.5"}, "particles.count", "an integer");
+  expect_error({"domain.lo=[0.0, 0.0]"}, "domain.lo", "3 numbers");
+  expect_error({"domain.planar=1"}, "domain.planar", "true or false");
+}
+
+TEST(CaseFile, UnknownKeysAndModulesAreRefused) {
+  expect_error({"domain.bondary=1"}, "domain.bondary", "unknown key");
+  expect_error({"modules=[\"contact\", \"magnetism\"]"}, "modules", "unknown module 'magnetism'");
+  expect_error({"particles.init=\"poured\""}, "particles.init", "\"random\", \"lattice\"");
+}
+
+TEST(CaseFile, ParticlesThatCannotFitAreRefused) {
+  // 40,000 spheres of radius 0.5 mm in 8 cm^3: volume fraction 2.6.
+  expect_error({"particles.count=40000"}, "particles.count", "fraction");
+  expect_error({"particles.init=\"lattice\"", "particles.count=40000"}, "particles.count", "lattice");
+  EXPECT_EQ(error_of({"particles.init=\"lattice\"", "particles.count=8000"}), "");
+}
+
+TEST(CaseFile, BrokenTomlNamesFileAndLine) {
+  const std::string msg = error_of({}, "[domain\nlo = [0,0,0]\n");
+  EXPECT_NE(msg.find("test.toml:1"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not valid TOML"), std::string::npos) << msg;
+}
+
+TEST(CaseFile, SetOverridesAnyKey) {
+  const Config c = config_from(kGood, {"time.end=2.5", "species.0.e=0.25", "particles.velocity_sigma=3"});
+  EXPECT_EQ(c.t_end, 2.5);
+  EXPECT_EQ(c.species[0].e, 0.25);
+  EXPECT_EQ(c.velocity_sigma, 3.0);
+}

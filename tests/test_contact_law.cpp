@@ -1,0 +1,140 @@
+// Contact law against analytic results (spec section 1).
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "TestScene.hpp"
+
+using namespace cassini;
+using namespace cassini::test;
+
+namespace {
+
+const char* kPair = R"(
+modules = ["contact"]
+[domain]
+lo = [-0.05, -0.05, -0.05]
+hi = [0.05, 0.05, 0.05]
+[[species]]
+density = 2500.0
+radius = 0.001
+t_c = 1.0e-4
+e = 0.5
+[particles]
+init = "none"
+[time]
+end = 1.0
+)";
+
+struct Collision {
+  double restitution;
+  double duration;
+};
+
+// Two equal spheres approach head-on at speed v each; returns e and contact duration.
+Collision head_on(double e, double n_c, bool clip = false) {
+  auto sim = make_sim(kPair, {"species.0.e=" + std::to_string(e), "time.n_c=" + std::to_string(n_c),
+                              std::string("contact.clip_normal=") + (clip ? "true" : "false")});
+  const double a = 0.001, v = 0.1, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  // Start a fraction of a step from touching so the onset falls between steps.
+  const double gap = 0.37 * v * sim->dt;
+  sim->particles.add(0, 0, a, m, Vec3(-a - gap, 0, 0), Vec3(v, 0, 0));
+  sim->particles.add(1, 0, a, m, Vec3(a + gap, 0, 0), Vec3(-v, 0, 0));
+  sim->setup();
+  // Exact contact start: both move at v until they touch at t0 = gap / v.
+  const double t0 = gap / v;
+  bool touched = false;
+  double t_end = 0;
+  for (int s = 0; s < 100000; ++s) {
+    sim->step();
+    const long i = local_index(*sim, 0), j = local_index(*sim, 1);
+    const double dist = (sim->particles.x[i] - sim->particles.x[j]).norm();
+    if (dist < 2 * a) touched = true;
+    if (touched && dist >= 2 * a) {
+      // Interpolate the separation instant within the last step from the gap opening rate.
+      const double vrel = sim->particles.v[j][0] - sim->particles.v[i][0];
+      t_end = sim->time - (dist - 2 * a) / vrel;
+      return {vrel / (2 * v), t_end - t0};
+    }
+  }
+  ADD_FAILURE() << "no separation";
+  return {0, 0};
+}
+
+}  // namespace
+
+TEST(ContactLaw, HeadOnCollisionReproducesRestitutionAndDuration) {
+  // The dashpot sees the half-step velocity v(t+dt/2) while the spring sees x(t+dt): a lag
+  // of dt/2 that makes the restitution error first order in dt. To leading order the
+  // relative error is about ln(e)/N_c = -eta dt (the damping acts for an extra ~dt over the
+  // contact); we allow 1.25 |ln e| / N_c (+1e-6 for round-off at e -> 1), i.e. 5.8 % at
+  // e = 0.1 and 1.7 % at e = 0.5 with N_c = 50. The duration must match t_c to within one
+  // step (the separation instant is interpolated linearly within the last step).
+  for (double nc : {50.0, 100.0}) {
+    for (double e : {0.1, 0.5, 0.9, 0.99}) {
+      const double tol_e = 1.25 * std::abs(std::log(e)) / nc + 1e-6;
+      const Collision c = head_on(e, nc);
+      const double tc = 1e-4, dt = tc / nc;
+      std::printf("N_c=%3.0f e=%.2f: measured e=%.6f (rel err %.2e), t_c err = %.3f dt\n", nc, e, c.restitution,
+                  c.restitution / e - 1, (c.duration - tc) / dt);
+      EXPECT_NEAR(c.restitution / e, 1.0, tol_e) << "e = " << e << ", N_c = " << nc;
+      EXPECT_NEAR(c.duration, tc, dt) << "e = " << e << ", N_c = " << nc;
+    }
+  }
+}
+
+TEST(ContactLaw, ErrorShrinksWithTimeStep) {
+  // First-order convergence (see above): quadrupling N_c cuts the restitution error by ~4.
+  const double e = 0.5;
+  const double err25 = std::abs(head_on(e, 25).restitution - e);
+  const double err100 = std::abs(head_on(e, 100).restitution - e);
+  std::printf("restitution error: N_c=25 %.3e, N_c=100 %.3e\n", err25, err100);
+  EXPECT_GT(err25 / err100, 3.0);
+  EXPECT_LT(err25 / err100, 6.0);
+}
+
+TEST(ContactLaw, ClippedNormalForceRestitutesMore) {
+  // Clipping removes the attractive tail of the dashpot, so the rebound is faster than e.
+  const Collision c = head_on(0.1, 100, true);
+  EXPECT_GT(c.restitution, 0.1 * 1.05);
+}
+
+TEST(ContactLaw, SphereSlidingOnFloorEndsRollingAtFiveSevenths) {
+  // A solid sphere thrown without spin onto a frictional floor slides, friction mu_d m g
+  // slows it and spins it up until v = a omega; then it rolls at v = 5/7 v0 (I = 2/5 m a^2),
+  // independent of mu. The rolling onset is at t* = 2 v0 / (7 mu g).
+  const char* text = R"(
+modules = ["contact", "gravity"]
+[domain]
+lo = [-1.0, -0.05, 0.0]
+hi = [1.0, 0.05, 0.1]
+boundary = ["periodic", "periodic", "wall"]
+[[species]]
+density = 2500.0
+radius = 0.005
+t_c = 1.0e-4
+e = 0.5
+mu_s = 0.3
+mu_d = 0.3
+[particles]
+init = "none"
+[gravity]
+g = [0.0, 0.0, -9.81]
+[time]
+end = 1.0
+)";
+  auto sim = make_sim(text);
+  const double a = 0.005, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, v0 = 0.5;
+  const double tc = 1e-4, eta = -std::log(0.5) / tc, w = std::numbers::pi / tc;
+  const double settle = 9.81 / (w * w + eta * eta);  // static overlap m g / k
+  sim->particles.add(0, 0, a, m, Vec3(0, 0, a - settle), Vec3(v0, 0, 0));
+  sim->setup();
+  const double t_star = 2 * v0 / (7 * 0.3 * 9.81);
+  while (sim->time < 3 * t_star) sim->step();
+  const long i = local_index(*sim, 0);
+  const double v = sim->particles.v[i][0], spin = sim->particles.omega[i][1] * a;  // contact point speed v - a omega_y = 0
+  EXPECT_NEAR(v / v0, 5.0 / 7.0, 1e-3);
+  EXPECT_NEAR(spin / v, 1.0, 1e-3) << "rolling without slip";
+  EXPECT_NEAR(sim->particles.v[i][2], 0.0, 1e-6) << "no bouncing";
+}
