@@ -154,7 +154,8 @@ Config read_config(CaseFile& f) {
     }
     if (c.init == "lattice") {
       c.lattice_jitter = f.number("particles.jitter", 0.0);
-      if (c.lattice_jitter < 0 || c.lattice_jitter > 0.5) f.fail("particles.jitter", "a fraction of the gap in [0, 0.5]");
+      // Each site moves by up to +-jitter gap/2 per axis: two neighbours never close the gap for jitter <= 1.
+      if (c.lattice_jitter < 0 || c.lattice_jitter > 1) f.fail("particles.jitter", "a fraction of the gap in [0, 1]");
     }
   } else if (c.init == "file") {
     c.init_file = f.string("particles.file");

@@ -50,13 +50,25 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
 
   start.resize(p.nlocal + 1);
   partner.clear();
+  partner.reserve(p.nlocal * 4);
+  const Vec3* X = p.x.data();
+  const double* A = p.radius.data();
+  const std::uint32_t* items = cell_items_.data();
+  const std::uint32_t* cstart = cell_start_.data();
+  // Positions and radii copied in cell order: the candidate loop then streams through memory.
+  sorted_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t j = items[k];
+    sorted_[k] = Eigen::Vector4d(X[j][0], X[j][1], X[j][2], A[j]);
+  }
+  const Eigen::Vector4d* C = sorted_.data();
   const int zr = g.n[2] > 1 ? 1 : 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     start[i] = static_cast<std::uint32_t>(partner.size());
     const std::uint32_t c = cell_of_[i];
     const int cx = c % g.n[0], cy = (c / g.n[0]) % g.n[1], cz = c / (g.n[0] * g.n[1]);
-    const Vec3 xi = p.x[i];
-    const double ri = p.radius[i] + skin;
+    const Vec3 xi = X[i];
+    const double ri = A[i] + skin;
     for (int dz = -zr; dz <= zr; ++dz) {
       const int z = cz + dz;
       if (z < 0 || z >= g.n[2]) continue;
@@ -66,10 +78,11 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
         const int x0 = std::max(cx - 1, 0), x1 = std::min(cx + 1, g.n[0] - 1);
         const std::size_t row = (std::size_t(z) * g.n[1] + y) * g.n[0];
         // cells x0..x1 of one row are contiguous in cell_items_
-        for (std::uint32_t k = cell_start_[row + x0]; k < cell_start_[row + x1 + 1]; ++k) {
-          const std::uint32_t j = cell_items_[k];
-          const double cut = ri + p.radius[j];
-          if ((xi - p.x[j]).squaredNorm() < cut * cut && j != i) partner.push_back(j);
+        for (std::uint32_t k = cstart[row + x0]; k < cstart[row + x1 + 1]; ++k) {
+          const Eigen::Vector4d& c = C[k];
+          const double cut = ri + c[3];
+          const double dx = xi[0] - c[0], dy = xi[1] - c[1], dz = xi[2] - c[2];
+          if (dx * dx + dy * dy + dz * dz < cut * cut && items[k] != i) partner.push_back(items[k]);
         }
       }
     }

@@ -32,6 +32,7 @@ class NeighborList {
   };
   static Grid make_grid(const Decomposition& dom, double range);
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
+  std::vector<Eigen::Vector4d> sorted_;
 };
 
 }  // namespace cassini

@@ -14,31 +14,42 @@ void ContactForces::force(Simulation& sim) {
   long contacts = 0;
   double worst = 0;
   std::int64_t worst_id = -1;
+  // Raw views: the compiler cannot prove the vectors' data pointers stay put across the
+  // stores below, and would reload them for every pair.
+  const Vec3* X = p.x.data();
+  const Vec3* V = p.v.data();
+  const Vec3* W = fric ? p.omega.data() : nullptr;
+  const double* A = p.radius.data();
+  const double* M = p.mass.data();
+  const std::int32_t* S = p.species.data();
+  const std::uint32_t* start = nl.start.data();
+  const std::uint32_t* partner = nl.partner.data();
+  Vec3* XI = fric ? xi_.data() : nullptr;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const Vec3 xi = p.x[i], vi = p.v[i];
-    const double ai = p.radius[i], mi = p.mass[i];
-    const int si = p.species[i];
+    const Vec3 xi = X[i], vi = V[i];
+    const double ai = A[i], mi = M[i];
+    const int si = S[i];
     Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero();
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const Vec3 d = xi - p.x[j];
-      const double r2 = d.squaredNorm(), R = ai + p.radius[j];
+    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
+      const std::uint32_t j = partner[k];
+      const Vec3 d = xi - X[j];
+      const double r2 = d.squaredNorm(), R = ai + A[j];
       if (r2 >= R * R) {
-        if (fric) xi_[k].setZero();
+        if (fric) XI[k].setZero();
         continue;
       }
       const double r = std::sqrt(r2);
       const Vec3 n = d / r;
       const double delta = R - r;
-      const double mj = p.mass[j];
+      const double mj = M[j];
       const double m = mi * mj / (mi + mj);
-      Vec3 vrel = vi - p.v[j];
-      if (fric) vrel -= (ai * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);
+      Vec3 vrel = vi - V[j];
+      if (fric) vrel -= (ai * W[i] + A[j] * W[j]).cross(n);
       Vec3 ft;
-      fsum += law_.force(law_.law(si, p.species[j]), m, delta, n, vrel, fric ? &xi_[k] : nullptr, ft);
+      fsum += law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft);
       if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
       ++contacts;
-      const double frac = delta / std::min(ai, p.radius[j]);
+      const double frac = delta / std::min(ai, A[j]);
       if (frac > worst) { worst = frac; worst_id = p.id[i]; }
     }
     p.f[i] += fsum;

@@ -13,28 +13,30 @@ void Guards::setup(Simulation& sim) { ke0_ = sim.kinetic_energy(); }
 
 void Guards::end_of_step(Simulation& sim) {
   const ParticleStore& p = sim.particles;
+  // Fast scan first; the message is only built when something is wrong.
   std::ostringstream why;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (!p.x[i].allFinite() || !p.v[i].allFinite() || (p.rotation && !p.omega[i].allFinite())) {
+    const bool finite = p.x[i].allFinite() && p.v[i].allFinite() && (!p.rotation || p.omega[i].allFinite());
+    if (!finite) {
       why << "non-finite position or velocity of particle " << p.id[i];
       break;
     }
-    for (int d = 0; d < sim.domain.dims; ++d) {
-      // Past a wall by more than a radius: it tunnelled through.
-      if (sim.domain.boundary[d] == Boundary::Wall &&
-          (p.x[i][d] < sim.domain.lo[d] - p.radius[i] || p.x[i][d] > sim.domain.hi[d] + p.radius[i])) {
+  }
+  for (int d = 0; d < sim.domain.dims && why.tellp() == 0; ++d) {
+    if (sim.domain.boundary[d] != Boundary::Wall) continue;
+    for (std::size_t i = 0; i < p.nlocal; ++i)
+      if (p.x[i][d] < sim.domain.lo[d] - p.radius[i] || p.x[i][d] > sim.domain.hi[d] + p.radius[i]) {
+        // Past a wall by more than a radius: it tunnelled through.
         why << "particle " << p.id[i] << " left the domain through the wall on axis " << "xyz"[d];
         break;
       }
-    }
-    if (!why.str().empty()) break;
   }
-  if (why.str().empty() && sim.contact && sim.contact->max_overlap_fraction() > max_overlap_)
+  if (why.tellp() == 0 && sim.contact && sim.contact->max_overlap_fraction() > max_overlap_)
     why << "overlap of " << sim.contact->max_overlap_fraction() << " radii at particle " << sim.contact->worst_id()
         << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
-  if (why.str().empty() && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
+  if (why.tellp() == 0 && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
     why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
-  if (!why.str().empty()) sim.raise_guard(why.str());
+  if (why.tellp() != 0) sim.raise_guard(why.str());
 
   // Kinetic energy growth (collective: every rank takes this branch on the same steps).
   if (!energy_source_ && ke0_ > 0 && sim.step_count % 100 == 0) {

@@ -1,0 +1,118 @@
+"""Drives scripts/bench: identical gas scene in cassini and LAMMPS, medians of repeats."""
+import math, os, re, statistics, subprocess, sys, tempfile, json
+
+REPEATS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+STEPS = 1000
+LAMMPS_IN = os.path.abspath(os.path.join(os.path.dirname(__file__), "../../shared/peers/lammps/in.gas"))
+if not os.path.exists(LAMMPS_IN):
+    LAMMPS_IN = "/work/shared/peers/lammps/in.gas"
+ENV = dict(os.environ, OMPI_MCA_btl_vader_single_copy_mechanism="none")
+MPI = ["mpirun", "--oversubscribe"] + (["--allow-run-as-root"] if os.getuid() == 0 else [])
+SIZES = {50000: (50, 40, 25), 200000: (80, 50, 50)}
+
+# The LAMMPS scene in LJ units: d = 1, density 1, kn = 2000, e = 0.9, dt = t_c/50.
+m = math.pi / 6
+meff = m / 2
+kn, en = 2000.0, 0.9
+lne = math.log(en)
+gn = -2 * lne * math.sqrt(kn / meff) / math.sqrt(math.pi**2 + lne**2)
+tc = math.pi / math.sqrt(kn / meff - 0.25 * gn * gn)
+spacing = (0.30 / (math.pi / 6)) ** (-1 / 3)
+
+
+def case_text(n, friction):
+    nx, ny, nz = SIZES[n]
+    mu = 0.5 if friction else 0.0
+    # LAMMPS: gamma_t = gamma_n / 2 (in.gas), k_t = 2/7 k_n
+    return f"""
+seed = 4928459
+modules = ["contact"]
+[domain]
+lo = [0.0, 0.0, 0.0]
+hi = [{nx * spacing}, {ny * spacing}, {nz * spacing}]
+[[species]]
+density = 1.0
+radius = 0.5
+t_c = {tc!r}
+e = {en}
+mu_s = {mu}
+mu_d = {mu}
+kt_ratio = {2 / 7!r}
+gammat_ratio = 0.5
+[contact]
+skin = 0.1
+[particles]
+init = "lattice"
+count = {n}
+jitter = {0.08 * 2 / (spacing - 1.0)!r}
+velocity_sigma = {math.sqrt(1.0 / m)!r}
+[time]
+n_c = 50
+end = {STEPS * tc / 50!r}
+[output]
+progress_every = 1000
+[guards]
+max_overlap = 0.6   # this soft LJ-unit scene reaches ~25 % overlaps in head-on impacts
+"""
+
+
+def peak_rss_kb(stderr):
+    vals = [int(v) for v in re.findall(r"Maximum resident set size \(kbytes\): (\d+)", stderr)]
+    return vals
+
+
+def run_cassini(n, friction, ranks, tmp):
+    path = os.path.join(tmp, f"gas_{n}_{friction}")
+    os.makedirs(path, exist_ok=True)
+    with open(os.path.join(path, "case.toml"), "w") as f:
+        f.write(case_text(n, friction))
+    out = os.path.join(tmp, f"out_{n}_{friction}_{ranks}")
+    cmd = MPI + ["-n", str(ranks), "/usr/bin/time", "-v", "build/cassini", path, "--out", out, "--force"]
+    r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
+    if r.returncode != 0:
+        sys.exit("cassini failed:\n" + r.stdout + r.stderr)
+    s = json.load(open(os.path.join(out, "summary.json")))
+    rss = peak_rss_kb(r.stderr)
+    return s["particle_steps_per_second"] / ranks, sum(rss) * 1024 / n
+
+
+def run_lammps(n, friction, ranks):
+    nx, ny, nz = SIZES[n]
+    cmd = MPI + ["-n", str(ranks), "/usr/bin/time", "-v", "lmp", "-in", LAMMPS_IN, "-log", "none", "-screen", "none",
+                 "-var", "nx", str(nx), "-var", "ny", str(ny), "-var", "nz", str(nz), "-var", "friction", str(friction)]
+    # -screen none hides the loop time; read it from the log instead.
+    with tempfile.TemporaryDirectory() as d:
+        cmd[cmd.index("-log") + 1] = os.path.join(d, "log.lammps")
+        r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
+        log = open(os.path.join(d, "log.lammps")).read()
+    t = float(re.search(r"Loop time of ([0-9.eE+-]+) on", log).group(1))
+    return n * STEPS / t / ranks, sum(peak_rss_kb(r.stderr)) * 1024 / n
+
+
+def main():
+    print(f"granular gas phi=0.3, t_c={tc:.5f}, dt=t_c/50, {STEPS} steps, {REPEATS} repeats (medians)")
+    print(f"{'N':>7} {'mu':>4} {'ranks':>5} | {'cassini p-steps/s/core':>22} {'B/particle':>10} | "
+          f"{'LAMMPS p-steps/s/core':>21} {'B/particle':>10} | ratio")
+    ratios1 = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in (50000, 200000):
+            for friction in (0, 1):
+                for ranks in (1, 2):
+                    c, l = [], []
+                    for _ in range(REPEATS):  # back to back, so both see the same machine load
+                        c.append(run_cassini(n, friction, ranks, tmp))
+                        l.append(run_lammps(n, friction, ranks))
+                    cs, cm = statistics.median(x[0] for x in c), statistics.median(x[1] for x in c)
+                    ls, lm = statistics.median(x[0] for x in l), statistics.median(x[1] for x in l)
+                    print(f"{n:>7} {0.5 * friction:>4} {ranks:>5} | {cs:>22.3e} {cm:>10.0f} | {ls:>21.3e} {lm:>10.0f} | {cs / ls:.2f}",
+                          flush=True)
+                    if ranks == 1:
+                        ratios1.append(cs / ls)
+                        single = (n, friction, cs, ls)
+                    else:
+                        print(f"{'':>19}2-rank parallel efficiency: cassini {cs / single[2]:.2f}, LAMMPS {ls / single[3]:.2f}")
+    print("(memory: peak resident set of all ranks / N, including the MPI runtime)")
+    print(f"ratio cassini/lammps: {statistics.median(ratios1):.2f}")
+
+
+main()
