@@ -16,13 +16,15 @@ double Config::max_radius() const {
   return r;
 }
 
+double Config::omega0() const { return std::sqrt(kGravitationalConstant * saturn_mass / std::pow(orbit_radius, 3)); }
+
 bool Config::has_module(const std::string& name) const {
   return std::find(modules.begin(), modules.end(), name) != modules.end();
 }
 
 namespace {
 
-const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls"};
+const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls", "hill", "moonlet"};
 
 int axis_index(CaseFile& f, const std::string& key, const std::string& v) {
   if (v == "x") return 0;
@@ -60,8 +62,11 @@ Config read_config(CaseFile& f) {
     if (bounds[d] == "periodic") c.boundary[d] = Boundary::Periodic;
     else if (bounds[d] == "wall") c.boundary[d] = Boundary::Wall;
     else if (bounds[d] == "open") c.boundary[d] = Boundary::Open;
-    else f.fail("domain.boundary", "each entry \"periodic\", \"wall\" or \"open\"");
+    else if (bounds[d] == "lees_edwards" && d == 1) c.boundary[d] = Boundary::LeesEdwards;
+    else f.fail("domain.boundary", "each entry \"periodic\", \"wall\" or \"open\" (\"lees_edwards\" on y only)");
   }
+  if (c.sheared() && c.boundary[0] != Boundary::Periodic)
+    f.fail("domain.boundary", "x periodic when y is \"lees_edwards\" (the shear shifts images along x)");
   c.planar = f.boolean("domain.planar", false);
   c.slab_axis = axis_index(f, "domain.slab_axis", f.string("domain.slab_axis", "x"));
   if (c.planar && c.slab_axis == 2) f.fail("domain.slab_axis", "\"x\" or \"y\" in a planar scene");
@@ -98,7 +103,26 @@ Config read_config(CaseFile& f) {
   c.modules = f.strings("modules", std::vector<std::string>{"contact"});
   for (const auto& m : c.modules)
     if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end())
-      f.fail("modules", "module names from {contact, gravity, walls}; unknown module '" + m + "'");
+      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet}; unknown module '" + m + "'");
+
+  // ---- Hill frame, moonlet, shear
+  if (c.has_module("hill") || c.has_module("moonlet")) {
+    c.saturn_mass = positive(f, "hill.saturn_mass", 5.68e26);
+    c.orbit_radius = positive(f, "hill.orbit_radius", 1.17e8);
+  }
+  if (c.has_module("hill")) {
+    c.hill_form = f.string("hill.form", "linear");
+    if (c.hill_form != "linear" && c.hill_form != "exact") f.fail("hill.form", "\"linear\" or \"exact\"");
+  }
+  if (c.has_module("moonlet")) {
+    c.moonlet_mass = positive(f, "moonlet.mass");
+    c.moonlet_radius = positive(f, "moonlet.radius");
+  }
+  if (c.sheared()) {
+    // In the Hill frame the Keplerian shear is the natural default: v_x = 1.5 Omega0 y.
+    const bool hill = c.has_module("hill");
+    c.shear_rate = hill ? f.number("domain.shear_rate", 1.5 * c.omega0()) : f.number("domain.shear_rate");
+  }
   const bool has_walls = std::find(c.boundary.begin(), c.boundary.end(), Boundary::Wall) != c.boundary.end();
   if (has_walls && !c.has_module("walls")) c.modules.push_back("walls");  // walls are geometry
   if (c.planar && c.boundary[2] == Boundary::Wall) f.fail("domain.boundary", "no z walls in a planar scene");
@@ -141,10 +165,18 @@ Config read_config(CaseFile& f) {
   c.init_species = static_cast<int>(it - c.species.begin());
   c.velocity_mean = f.vec3("particles.velocity", Vec3(0, 0, 0));
   c.velocity_sigma = non_negative(f, "particles.velocity_sigma", 0.0);
+  c.shear_flow = f.boolean("particles.shear_flow", false);
+  if (c.shear_flow && !c.sheared()) f.fail("particles.shear_flow", "a \"lees_edwards\" y boundary (it sets the flow)");
+  c.dispersion_fraction = non_negative(f, "particles.dispersion", 0.0);
   if (c.init == "random" || c.init == "lattice") {
-    if (f.has("particles.count") == f.has("particles.volume_fraction"))
-      f.fail("particles.count", "exactly one of particles.count or particles.volume_fraction");
-    if (f.has("particles.count")) {
+    const int given = f.has("particles.count") + f.has("particles.volume_fraction") + f.has("particles.optical_depth");
+    if (given != 1)
+      f.fail("particles.count", "exactly one of particles.count, particles.volume_fraction, particles.optical_depth");
+    if (f.has("particles.optical_depth")) {
+      if (!c.planar) f.fail("particles.optical_depth", "a planar scene (domain.planar = true)");
+      c.optical_depth = f.number("particles.optical_depth");
+      if (!(c.optical_depth > 0 && c.optical_depth < 0.5)) f.fail("particles.optical_depth", "a value in (0, 0.5)");
+    } else if (f.has("particles.count")) {
       c.count = f.integer("particles.count");
       if (c.count < 1) f.fail("particles.count", "a positive integer");
     } else {
@@ -176,7 +208,7 @@ Config read_config(CaseFile& f) {
   // A box too small for the interaction range cannot be decomposed or imaged correctly.
   const double range = 2 * c.max_radius() + c.skin;
   for (int d = 0; d < (c.planar ? 2 : 3); ++d)
-    if (c.boundary[d] == Boundary::Periodic && c.hi[d] - c.lo[d] < 2 * range)
+    if (c.periodic_like(d) && c.hi[d] - c.lo[d] < 2 * range)
       f.fail("domain.hi", "a periodic box at least 2 x (2 a_max + skin) = " + std::to_string(2 * range) +
                               " long on every periodic axis");
 

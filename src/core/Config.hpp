@@ -11,7 +11,9 @@
 
 namespace cassini {
 
-enum class Boundary { Periodic, Wall, Open };
+// LeesEdwards: only on y, with x periodic: a periodic image across y is shifted in x by the
+// growing shear offset and moves faster by shear_rate * Ly (spec section 2).
+enum class Boundary { Periodic, Wall, Open, LeesEdwards };
 
 struct Species {
   std::string name;
@@ -24,6 +26,8 @@ struct Species {
   double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
 };
 
+inline constexpr double kGravitationalConstant = 6.674e-11;
+
 struct Config {
   std::string source;  // case file path, for messages
 
@@ -32,6 +36,15 @@ struct Config {
   std::array<Boundary, 3> boundary{Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
   bool planar = false;  // centres stay on z = lo_z..hi_z midplane; z is never integrated
   int slab_axis = 0;
+  double shear_rate = 0;  // Lees-Edwards gamma_dot (1/s); v_x = shear_rate * y is the imposed flow
+
+  // Hill frame (module "hill"): Saturn at (0, -r0), frame rotating at Omega0
+  std::string hill_form = "linear";  // linear | exact
+  double saturn_mass = 5.68e26, orbit_radius = 1.17e8;
+  double omega0() const;
+
+  // Moonlet (module "moonlet"): fixed at the origin
+  double moonlet_mass = 0, moonlet_radius = 0;
 
   std::vector<Species> species;
 
@@ -43,6 +56,9 @@ struct Config {
   int init_species = 0;
   Vec3 velocity_mean{0, 0, 0};
   double velocity_sigma = 0;  // Gaussian dispersion per velocity component
+  bool shear_flow = false;      // add the imposed flow shear_rate * y e_x
+  double dispersion_fraction = 0;  // extra Gaussian dispersion, fraction of |shear_rate y|
+  double optical_depth = 0;     // planar ring: N pi a^2 / (Lx Ly)
   double lattice_jitter = 0;  // random displacement, as a fraction of the lattice gap
 
   std::vector<std::string> modules;
@@ -67,6 +83,8 @@ struct Config {
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
   double max_radius() const;
   bool has_module(const std::string& name) const;
+  bool sheared() const { return boundary[1] == Boundary::LeesEdwards; }
+  bool periodic_like(int d) const { return boundary[d] == Boundary::Periodic || boundary[d] == Boundary::LeesEdwards; }
 };
 
 // Reads and validates; throws ConfigError naming file, key and expectation.

@@ -30,7 +30,7 @@ struct Candidate {
 void centre_bounds(const Config& cfg, Vec3& lo, Vec3& hi) {
   const double a = cfg.max_radius();
   for (int d = 0; d < 3; ++d) {
-    const bool per = cfg.boundary[d] == Boundary::Periodic;
+    const bool per = cfg.periodic_like(d);
     lo[d] = cfg.lo[d] + (per ? 0 : a);
     hi[d] = cfg.hi[d] - (per ? 0 : a);
   }
@@ -46,6 +46,7 @@ long resolve_count(const Config& cfg) {
   if (cfg.count > 0) return cfg.count;
   const Species& s = cfg.species[cfg.init_species];
   const Vec3 L = cfg.hi - cfg.lo;
+  if (cfg.optical_depth > 0) return std::lround(cfg.optical_depth * L[0] * L[1] / (std::numbers::pi * mean_power(s, 2)));
   if (cfg.planar) return std::lround(cfg.volume_fraction * L[0] * L[1] / (std::numbers::pi * mean_power(s, 2)));
   return std::lround(cfg.volume_fraction * L[0] * L[1] * L[2] / (4.0 / 3.0 * std::numbers::pi * mean_power(s, 3)));
 }
@@ -61,7 +62,9 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
   const double fraction = cfg.planar ? n * std::numbers::pi * mean_power(s, 2) / (L[0] * L[1])
                                      : n * 4.0 / 3.0 * std::numbers::pi * mean_power(s, 3) / L.prod();
   const double limit = cfg.planar ? 0.50 : 0.35;  // below the random-sequential-addition jamming limits
-  const std::string key = cfg.count > 0 ? "particles.count" : "particles.volume_fraction";
+  const std::string key = cfg.count > 0 ? "particles.count"
+                          : cfg.optical_depth > 0 ? "particles.optical_depth" : "particles.volume_fraction";
+  const double moon = cfg.has_module("moonlet") ? cfg.moonlet_radius : -1;  // keep clear of the moonlet
   if (fraction > limit) {
     std::ostringstream os;
     os << "expected at most a " << (cfg.planar ? "area" : "volume") << " fraction of " << limit
@@ -89,7 +92,7 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
       for (int d = 0; d < 3; ++d) x[d] = lo[d] == hi[d] ? lo[d] : rng.uniform(lo[d], hi[d]);
       int c[3];
       cell_of(x, c);
-      bool ok = true;
+      bool ok = moon < 0 || x.norm() >= moon + a;
       for (int dz = (nc[2] > 1 ? -1 : 0); dz <= (nc[2] > 1 ? 1 : 0) && ok; ++dz)
         for (int dy = -1; dy <= 1 && ok; ++dy)
           for (int dx = -1; dx <= 1 && ok; ++dx) {
@@ -97,7 +100,7 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
             bool skip = false;
             for (int d = 0; d < 3; ++d) {
               if (q[d] < 0 || q[d] >= nc[d]) {
-                if (cfg.boundary[d] != Boundary::Periodic) skip = true;
+                if (!cfg.periodic_like(d)) skip = true;
                 q[d] = (q[d] + nc[d]) % nc[d];
               }
             }
@@ -107,7 +110,7 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
             for (int j : it->second) {
               Vec3 dvec = x - out[j].x;
               for (int d = 0; d < 3; ++d)
-                if (cfg.boundary[d] == Boundary::Periodic) dvec[d] -= L[d] * std::round(dvec[d] / L[d]);
+                if (cfg.periodic_like(d)) dvec[d] -= L[d] * std::round(dvec[d] / L[d]);
               const double R = a + out[j].a;
               if (dvec.squaredNorm() < R * R) { ok = false; break; }
             }
@@ -135,13 +138,13 @@ std::vector<Candidate> lattice_positions(const Config& cfg, long n, Random& rng)
   Vec3 span = hi - lo;
   // Periodic axes: sites at lo + (k + 1/2) L/n; walled axes: the centre range edge to edge.
   double volume = 1;
-  for (int d = 0; d < dims; ++d) volume *= (cfg.boundary[d] == Boundary::Periodic ? span[d] : span[d] + 2 * s.radius_max);
+  for (int d = 0; d < dims; ++d) volume *= (cfg.periodic_like(d) ? span[d] : span[d] + 2 * s.radius_max);
   double spacing = std::pow(volume / n, 1.0 / dims);
   int m[3] = {1, 1, 1};
   for (int iter = 0; iter < 2000; ++iter, spacing *= 0.995) {
     long sites = 1;
     for (int d = 0; d < dims; ++d) {
-      const double len = cfg.boundary[d] == Boundary::Periodic ? span[d] : span[d] + 2 * s.radius_max;
+      const double len = cfg.periodic_like(d) ? span[d] : span[d] + 2 * s.radius_max;
       m[d] = std::max(1, static_cast<int>(len / spacing));
       sites *= m[d];
     }
@@ -149,7 +152,7 @@ std::vector<Candidate> lattice_positions(const Config& cfg, long n, Random& rng)
   }
   Vec3 gap;
   for (int d = 0; d < 3; ++d) {
-    const double len = d < dims ? (cfg.boundary[d] == Boundary::Periodic ? span[d] : span[d] + 2 * s.radius_max) : 0;
+    const double len = d < dims ? (cfg.periodic_like(d) ? span[d] : span[d] + 2 * s.radius_max) : 0;
     gap[d] = d < dims ? len / m[d] : 0;
     if (d < dims && gap[d] < 2 * s.radius_max)
       fail(cfg, cfg.count > 0 ? "particles.count" : "particles.volume_fraction",
@@ -163,7 +166,7 @@ std::vector<Candidate> lattice_positions(const Config& cfg, long n, Random& rng)
     const long idx[3] = {ix, iy, iz};
     for (int d = 0; d < 3; ++d) {
       if (d >= dims) { x[d] = lo[d]; continue; }
-      const double base = cfg.boundary[d] == Boundary::Periodic ? lo[d] : lo[d] - s.radius_max;
+      const double base = cfg.periodic_like(d) ? lo[d] : lo[d] - s.radius_max;
       x[d] = base + (idx[d] + 0.5) * gap[d];
       x[d] += cfg.lattice_jitter * 0.5 * (gap[d] - 2 * s.radius_max) * rng.uniform(-1, 1);
     }
@@ -206,7 +209,10 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
     cands = cfg.init == "random" ? random_positions(cfg, n, rng) : lattice_positions(cfg, n, rng);
     for (long k = 0; k < n; ++k) {
       Vec3 v = cfg.velocity_mean;
-      for (int d = 0; d < (cfg.planar ? 2 : 3); ++d) v[d] += cfg.velocity_sigma * rng.gaussian();
+      const double flow = cfg.shear_flow ? cfg.shear_rate * cands[k].x[1] : 0.0;  // imposed shear v_x = gamma_dot y
+      v[0] += flow;
+      const double sigma = cfg.velocity_sigma + cfg.dispersion_fraction * std::abs(flow);
+      for (int d = 0; d < (cfg.planar ? 2 : 3); ++d) v[d] += sigma * rng.gaussian();
       if (cfg.planar) v[2] = 0;
       velocities.push_back(v);
       species.push_back(cfg.init_species);
@@ -215,7 +221,7 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
   for (std::size_t k = 0; k < cands.size(); ++k) {
     Vec3 x = cands[k].x;
     for (int d = 0; d < 3; ++d)  // periodic axes: wrap into the box
-      if (cfg.boundary[d] == Boundary::Periodic) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
+      if (cfg.periodic_like(d)) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
     if (dom.owner(x[dom.axis]) != dom.rank) continue;
     const double a = cands[k].a;
     const double m = cfg.species[species[k]].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;

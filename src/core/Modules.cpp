@@ -4,6 +4,8 @@
 #include "physics/ContactForces.hpp"
 #include "physics/Gravity.hpp"
 #include "physics/Guards.hpp"
+#include "physics/HillFrame.hpp"
+#include "physics/Moonlet.hpp"
 #include "physics/PlaneWalls.hpp"
 #include "physics/VelocityVerlet.hpp"
 
@@ -16,12 +18,19 @@ void Gravity::force(Simulation& sim) {
 
 std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation& sim) {
   std::vector<std::unique_ptr<Module>> m;
-  m.push_back(std::make_unique<VelocityVerlet>(cfg.planar));
+  auto integrator = std::make_unique<VelocityVerlet>(cfg.planar);
+  if (cfg.has_module("hill")) integrator->set_frame_rotation(cfg.omega0());
+  m.push_back(std::move(integrator));
   // Force order is fixed (contacts, walls, body forces): part of what makes runs reproducible.
   if (cfg.has_module("contact")) m.push_back(std::make_unique<ContactForces>(cfg, sim.dt));
   if (cfg.has_module("walls")) m.push_back(std::make_unique<PlaneWalls>(cfg, sim.dt));
+  if (cfg.has_module("moonlet")) m.push_back(std::make_unique<Moonlet>(cfg, sim.dt));
+  if (cfg.has_module("hill")) m.push_back(std::make_unique<HillFrame>(cfg));
   if (cfg.has_module("gravity")) m.push_back(std::make_unique<Gravity>(cfg.gravity));
-  m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, cfg.has_module("gravity")));
+  // Kinetic energy may legitimately grow where something feeds it: gravity, the frame's
+  // potential, a moonlet, shear at a Lees-Edwards boundary.
+  const bool source = cfg.has_module("gravity") || cfg.has_module("hill") || cfg.has_module("moonlet") || cfg.sheared();
+  m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, source));
   return m;
 }
 

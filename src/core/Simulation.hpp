@@ -19,6 +19,7 @@ namespace cassini {
 
 class ContactForces;
 class PlaneWalls;
+class Moonlet;
 class RunOutput;
 
 // A guard tripped: every rank throws it on the same step (the verdict is reduced first).
@@ -62,6 +63,12 @@ class Simulation {
   std::vector<std::unique_ptr<Module>> modules;
   ContactForces* contact = nullptr;  // convenience views into `modules` (may be null)
   PlaneWalls* walls = nullptr;
+  Moonlet* moonlet = nullptr;
+
+  // Velocity of the imposed flow at x (the Lees-Edwards shear v_x = gamma_dot y; zero otherwise).
+  Vec3 imposed_flow(const Vec3& x) const {
+    return Vec3(domain.shear.enabled ? domain.shear.rate * x[1] : 0.0, 0, 0);
+  }
 
   std::vector<std::string> module_names() const;
 
@@ -72,7 +79,7 @@ class Simulation {
   bool global_guard_pending();
   std::vector<Module*> stage_[5];
   std::string guard_message_;
-  double shear_offset_at_build_ = 0;
+  double time_at_build_ = 0;
 };
 
 }  // namespace cassini

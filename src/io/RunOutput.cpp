@@ -8,6 +8,7 @@
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
+#include "physics/Moonlet.hpp"
 
 namespace fs = std::filesystem;
 
@@ -35,7 +36,8 @@ RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm) : dir_(d
   if (rank_ == 0) {
     log_.open(dir + "/run.log");
     obs_.open(dir + "/observables.csv");
-    obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,contacts,max_overlap_over_radius\n";
+    obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
+            "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts\n";
   }
 }
 
@@ -52,17 +54,35 @@ void RunOutput::write_text(const std::string& name, const std::string& text) {
 }
 
 void RunOutput::observe(Simulation& sim) {
+  // Granular temperature per component: mass-weighted variance of the velocity relative to
+  // the imposed flow (the Lees-Edwards shear) or, without one, to the mean velocity.
+  const ParticleStore& p = sim.particles;
   const double ke = sim.kinetic_energy(), pe = sim.elastic_energy();
-  const Vec3 p = sim.momentum();
+  const Vec3 mom = sim.momentum();
   const long n = sim.total_particles();
-  double local[2] = {sim.contact ? double(sim.contact->contacts()) : 0.0, 0.0};
+  double local[10] = {0};
+  for (std::size_t i = 0; i < p.nlocal; ++i) local[0] += p.mass[i];
+  double mass = 0;
+  MPI_Allreduce(&local[0], &mass, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  const Vec3 mean = sim.domain.shear.enabled ? Vec3::Zero() : Vec3(mom / mass);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Vec3 dv = p.v[i] - mean - sim.imposed_flow(p.x[i]);
+    for (int d = 0; d < 3; ++d) local[1 + d] += p.mass[i] * dv[d] * dv[d];
+  }
+  local[4] = sim.contact ? double(sim.contact->contacts()) : 0.0;
+  local[5] = sim.contact ? double(sim.contact->take_collisions()) : 0.0;
+  local[6] = sim.contact ? sim.contact->overlap_sum() : 0.0;
+  local[7] = sim.moonlet ? double(sim.moonlet->contacts()) : 0.0;
+  double sums[10];
+  MPI_Allreduce(local, sums, 8, MPI_DOUBLE, MPI_SUM, comm_);
   double overlap = sim.contact ? sim.contact->max_overlap_fraction() : 0.0, max_overlap = 0;
-  double contacts = 0;
-  MPI_Allreduce(&local[0], &contacts, 1, MPI_DOUBLE, MPI_SUM, comm_);
   MPI_Allreduce(&overlap, &max_overlap, 1, MPI_DOUBLE, MPI_MAX, comm_);
   if (rank_ != 0) return;
+  const double contacts = sums[4];
   obs_ << std::setprecision(12) << sim.step_count << "," << sim.time << "," << n << "," << ke << "," << pe << ","
-       << p[0] << "," << p[1] << "," << p[2] << "," << contacts / 2 << "," << max_overlap << "\n";
+       << mom[0] << "," << mom[1] << "," << mom[2] << "," << sums[1] / mass << "," << sums[2] / mass << ","
+       << sums[3] / mass << "," << contacts / 2 << "," << sums[5] << "," << (contacts > 0 ? sums[6] / contacts : 0.0)
+       << "," << max_overlap << "," << sums[7] << "\n";
   obs_.flush();
 }
 

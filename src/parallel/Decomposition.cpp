@@ -16,6 +16,8 @@ Decomposition::Decomposition(const Config& cfg, MPI_Comm c) : comm(c) {
   cuts.resize(nranks + 1);
   for (int r = 0; r <= nranks; ++r) cuts[r] = lo[axis] + length[axis] * r / nranks;
   cuts[nranks] = hi[axis];
+  shear.enabled = cfg.sheared();
+  shear.rate = cfg.shear_rate;
 }
 
 int Decomposition::owner(double coord) const {

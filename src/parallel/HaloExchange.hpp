@@ -36,6 +36,7 @@ class HaloExchange {
   void update_ghosts(ParticleStore& p);
 
   std::int64_t removed = 0;
+  double shear_momentum = 0;  // sum of m dv_x applied by Lees-Edwards crossings on this rank
 
  private:
   struct Image {

@@ -25,6 +25,11 @@ void ContactForces::force(Simulation& sim) {
   const std::uint32_t* start = nl.start.data();
   const std::uint32_t* partner = nl.partner.data();
   Vec3* XI = fric ? xi_.data() : nullptr;
+  if (touching_.size() != nl.size()) touching_.assign(nl.size(), 0);
+  std::uint8_t* T = touching_.data();
+  const std::int64_t* ID = p.id.data();
+  double overlap_sum = 0;
+  long onsets = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const Vec3 xi = X[i], vi = V[i];
     const double ai = A[i], mi = M[i];
@@ -36,8 +41,11 @@ void ContactForces::force(Simulation& sim) {
       const double r2 = d.squaredNorm(), R = ai + A[j];
       if (r2 >= R * R) {
         if (fric) XI[k].setZero();
+        T[k] = 0;
         continue;
       }
+      onsets += (!T[k] && ID[i] < ID[j]);  // the lower id counts the pair, wherever it lives
+      T[k] = 1;
       const double r = std::sqrt(r2);
       const Vec3 n = d / r;
       const double delta = R - r;
@@ -50,12 +58,15 @@ void ContactForces::force(Simulation& sim) {
       if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
       ++contacts;
       const double frac = delta / std::min(ai, A[j]);
+      overlap_sum += frac;
       if (frac > worst) { worst = frac; worst_id = p.id[i]; }
     }
     p.f[i] += fsum;
     if (fric) p.torque[i] += tsum;
   }
   contacts_ = contacts;
+  overlap_sum_ = overlap_sum;
+  collisions_ += onsets;
   max_overlap_ = worst;
   worst_id_ = worst_id;
 }
@@ -78,6 +89,7 @@ double ContactForces::elastic_energy(const Simulation& sim) const {
 }
 
 void ContactForces::pre_rebuild(Simulation& sim) {
+  if (!law_.friction()) return;
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   auto& stash = sim.history;
@@ -91,6 +103,15 @@ void ContactForces::pre_rebuild(Simulation& sim) {
 void ContactForces::post_rebuild(Simulation& sim) {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
+  // Pairs already touching across a rebuild are not new collisions.
+  touching_.assign(nl.size(), 0);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double R = p.radius[i] + p.radius[j];
+      touching_[k] = (p.x[i] - p.x[j]).squaredNorm() < R * R;
+    }
+  if (!law_.friction()) return;
   auto& stash = sim.history;
   xi_.assign(nl.size(), Vec3::Zero());
   auto before = [](const HistoryEntry& a, const HistoryEntry& b) {

@@ -13,7 +13,7 @@ class ContactForces : public Module {
  public:
   ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
   std::string name() const override { return law_.friction() ? "contact (LSD + friction)" : "contact (LSD)"; }
-  unsigned stages() const override { return kForce | (law_.friction() ? kRebuild : 0u); }
+  unsigned stages() const override { return kForce | kRebuild; }
 
   void force(Simulation& sim) override;
   void pre_rebuild(Simulation& sim) override;
@@ -24,10 +24,16 @@ class ContactForces : public Module {
   double max_overlap_fraction() const { return max_overlap_; }  // max delta / min(a_i, a_j)
   std::int64_t worst_id() const { return worst_id_; }
   double elastic_energy(const Simulation& sim) const;       // sum 1/2 k delta^2 over this rank's owned sides / 2
+  double overlap_sum() const { return overlap_sum_; }        // sum of delta / min(a_i, a_j) over contacts
+  // New contacts (collisions) since the last call, each pair counted once across all ranks.
+  long take_collisions() { const long c = collisions_; collisions_ = 0; return c; }
 
  private:
   LinearSpringDashpot law_;
   std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
+  std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
+  double overlap_sum_ = 0;
+  long collisions_ = 0;
   long contacts_ = 0;
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;

@@ -5,6 +5,7 @@
 
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
+#include "physics/Moonlet.hpp"
 #include "physics/PlaneWalls.hpp"
 
 namespace cassini {
@@ -36,6 +37,9 @@ void Guards::end_of_step(Simulation& sim) {
         << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
   if (why.tellp() == 0 && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
     why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
+  if (why.tellp() == 0 && sim.moonlet && sim.moonlet->max_overlap_fraction() > max_overlap_)
+    why << "moonlet overlap of " << sim.moonlet->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_
+        << " (impact too fast for t_c)";
   if (why.tellp() != 0) sim.raise_guard(why.str());
 
   // Kinetic energy growth (collective: every rank takes this branch on the same steps).

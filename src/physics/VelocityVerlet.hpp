@@ -9,13 +9,20 @@ namespace cassini {
 class VelocityVerlet : public Module {
  public:
   explicit VelocityVerlet(bool planar) : planar_(planar) {}
-  std::string name() const override { return planar_ ? "velocity-verlet (planar x-y)" : "velocity-verlet"; }
+  std::string name() const override {
+    return std::string("velocity-verlet") + (planar_ ? " (planar x-y)" : "") + (omega_ != 0 ? " in rotating frame" : "");
+  }
+  // Integrate in a frame rotating at omega about z: the Coriolis acceleration 2 omega (vy, -vx)
+  // is applied as an exact rotation of the velocity over each half step (see HillFrame.hpp).
+  void set_frame_rotation(double omega) { omega_ = omega; }
   unsigned stages() const override { return kInitialIntegrate | kFinalIntegrate; }
   void initial_integrate(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
 
  private:
+  void rotate_velocities(Simulation& sim) const;
   bool planar_;
+  double omega_ = 0;
 };
 
 }  // namespace cassini

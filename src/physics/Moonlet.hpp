@@ -1,0 +1,33 @@
+#pragma once
+// A moonlet fixed at the origin: point-mass gravity on every particle and an immovable
+// sphere they collide with (linear spring-dashpot with the wall reduced mass m_ij = m_i and
+// the particle's own species t_c and e).
+//
+// Inside the moonlet's radius the gravity is that of a uniform sphere, -G M r / R^3, so a
+// particle pushed into it (or aimed at its centre) feels a finite force: no r -> 0 blow-up.
+#include "core/Config.hpp"
+#include "core/Module.hpp"
+#include "physics/LinearSpringDashpot.hpp"
+
+namespace cassini {
+
+class Moonlet : public Module {
+ public:
+  Moonlet(const Config& cfg, double dt);
+  std::string name() const override { return "moonlet"; }
+  unsigned stages() const override { return kForce; }
+  void force(Simulation& sim) override;
+
+  Vec3 gravity(const Vec3& x) const;  // acceleration at x
+  double max_overlap_fraction() const { return max_overlap_; }
+  long contacts() const { return contacts_; }
+
+ private:
+  LinearSpringDashpot law_;
+  double gm_, radius_;
+  int dims_;
+  double max_overlap_ = 0;
+  long contacts_ = 0;
+};
+
+}  // namespace cassini
