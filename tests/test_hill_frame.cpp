@@ -1,0 +1,171 @@
+// Hill-frame dynamics of a free particle against the analytic solution of Hill's equations
+//   x'' = 2 W y',  y'' = -2 W x' + 3 W^2 y      (W = Omega0; linear form)
+// With C = vx0 - 2 W y0 the solution is
+//   y(t) = y_g + B cos Wt + D sin Wt,        y_g = -2C/W, B = y0 - y_g, D = vy0/W
+//   x(t) = x0 - 3C t + 2B sin Wt - 2D (cos Wt - 1)
+// an epicycle of period 2 pi/W with azimuthal:radial amplitudes 2:1 whose guiding centre
+// drifts at -3C = 1.5 W y_g.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "TestScene.hpp"
+#include "physics/HillFrame.hpp"
+#include "physics/Moonlet.hpp"
+
+using namespace cassini;
+using namespace cassini::test;
+
+namespace {
+
+const char* kRing = R"(
+modules = ["contact", "hill"]
+[domain]
+lo = [-1000.0, -1000.0, -10.0]
+hi = [1000.0, 1000.0, 10.0]
+boundary = ["periodic", "lees_edwards", "periodic"]
+planar = true
+[hill]
+form = "linear"
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 100.0
+e = 0.25
+[particles]
+init = "none"
+[contact]
+skin = 20.0
+[time]
+dt = 1.0
+end = 1.0
+)";
+
+const double kOmega = std::sqrt(kGravitationalConstant * 5.68e26 / std::pow(1.17e8, 3));
+const double kMass = 500.0 * 4.0 / 3.0 * std::numbers::pi * 8.0;
+
+// Follows one particle, undoing periodic wraps of x so its track is continuous.
+struct Track {
+  Simulation& sim;
+  double x_unwrapped, x_last;
+  explicit Track(Simulation& s) : sim(s) {
+    x_last = x_unwrapped = sim.particles.x[0][0];
+  }
+  void step() {
+    sim.step();
+    const double x = sim.particles.x[0][0], L = sim.domain.length[0];
+    double dx = x - x_last;
+    dx -= L * std::round(dx / L);
+    x_unwrapped += dx;
+    x_last = x;
+  }
+};
+
+}  // namespace
+
+TEST(HillFrame, ParticleOnTheShearFlowStaysOnIt) {
+  auto sim = make_sim(kRing);
+  const double y0 = 300.0, v0 = 1.5 * kOmega * y0;
+  sim->particles.add(0, 0, 2.0, kMass, Vec3(0, y0, 0), Vec3(v0, 0, 0));
+  sim->setup();
+  Track t(*sim);
+  const double T0 = 2 * std::numbers::pi / kOmega;
+  while (sim->time < 10 * T0) t.step();
+  const auto& p = sim->particles;
+  EXPECT_NEAR(p.x[0][1], y0, 1e-6 * y0);
+  EXPECT_NEAR(p.v[0][1], 0.0, 1e-6 * v0);
+  EXPECT_NEAR(p.v[0][0], v0, 1e-6 * v0);
+  EXPECT_NEAR(t.x_unwrapped, v0 * sim->time, 1e-6 * v0 * sim->time);
+}
+
+TEST(HillFrame, FreeParticlePerformsTheEpicycle) {
+  // dt = 0.25 s (the ring case uses 0.02 s): the splitting's O((W dt)^2) phase error then
+  // keeps the track within 1e-6 of the epicycle amplitude over 10 orbits.
+  auto sim = make_sim(kRing, {"time.dt=0.25"});
+  const double x0 = 0, y0 = 100.0, vx0 = 1.5 * kOmega * 60.0, vy0 = 0.004;
+  sim->particles.add(0, 0, 2.0, kMass, Vec3(x0, y0, 0), Vec3(vx0, vy0, 0));
+  sim->setup();
+  Track t(*sim);
+  const double W = kOmega, C = vx0 - 2 * W * y0, yg = -2 * C / W, B = y0 - yg, D = vy0 / W;
+  const double amplitude = std::hypot(B, D);  // radial amplitude; azimuthal is twice this
+  const double T0 = 2 * std::numbers::pi / W;
+  double worst = 0;
+  while (sim->time < 10 * T0) {
+    t.step();
+    const double s = sim->time;
+    const double x = x0 - 3 * C * s + 2 * B * std::sin(W * s) - 2 * D * (std::cos(W * s) - 1);
+    const double y = yg + B * std::cos(W * s) + D * std::sin(W * s);
+    worst = std::max({worst, std::abs(t.x_unwrapped - x), std::abs(sim->particles.x[0][1] - y)});
+  }
+  std::printf("epicycle: radial amplitude %.3f m, guiding centre y_g = %.3f m, max deviation %.3e m\n", amplitude, yg,
+              worst);
+  EXPECT_LT(worst, 1e-6 * amplitude);
+}
+
+TEST(HillFrame, JacobiConstantIsConserved) {
+  // E_J = (vx^2 + vy^2)/2 - 3/2 W^2 y^2 is the conserved energy of Hill's linear equations.
+  auto sim = make_sim(kRing);
+  // Guiding centre y_g = -276 m, radial amplitude 32 m: the orbit stays inside the box.
+  const double y0 = -250.0;
+  sim->particles.add(0, 0, 2.0, kMass, Vec3(0, y0, 0), Vec3(1.5 * kOmega * y0 + 0.002, 0.003, 0));
+  sim->setup();
+  auto jacobi = [&] {
+    const auto& p = sim->particles;
+    return 0.5 * p.v[0].squaredNorm() - 1.5 * kOmega * kOmega * p.x[0][1] * p.x[0][1];
+  };
+  const double j0 = jacobi();
+  double worst = 0;
+  const double T0 = 2 * std::numbers::pi / kOmega;
+  while (sim->time < 10 * T0) {
+    sim->step();
+    worst = std::max(worst, std::abs(jacobi() / j0 - 1));
+  }
+  std::printf("Jacobi constant: max relative change %.3e over 10 orbits\n", worst);
+  EXPECT_LT(worst, 1e-6);
+}
+
+TEST(HillFrame, ForcesCancelAtTheLagrangePoints) {
+  // At rest at (0, +-r_H), r_H = (G M_M / (3 W^2))^(1/3), the tidal pull 3 W^2 r_H balances
+  // the moonlet's gravity G M_M / r_H^2 (and the Coriolis force vanishes).
+  const double gm = kGravitationalConstant * 1.27e10;
+  const double rh = std::cbrt(gm / (3 * kOmega * kOmega));
+  EXPECT_NEAR(rh, 1.17e8 * std::cbrt(1.27e10 / (3 * 5.68e26)), 1e-9 * rh);  // spec: 228.5 m
+  EXPECT_NEAR(rh, 228.5, 0.1);
+  for (const char* form : {"linear", "exact"}) {
+    auto sim = make_sim(kRing, {"modules=[\"contact\", \"hill\", \"moonlet\"]", "moonlet.mass=1.27e10", "moonlet.radius=150.0",
+                                std::string("hill.form=\"") + form + "\""});
+    sim->particles.add(0, 0, 2.0, kMass, Vec3(0, rh, 0), Vec3(0, 0, 0));
+    sim->particles.add(1, 0, 2.0, kMass, Vec3(0, -rh, 0), Vec3(0, 0, 0));
+    sim->setup();  // evaluates F(0)
+    const double scale = kMass * 3 * kOmega * kOmega * rh;  // size of each cancelling term
+    for (int i = 0; i < 2; ++i) {
+      const double residual = sim->particles.f[i].norm() / scale;
+      std::printf("%s form: residual force at L%d = %.3e of the tidal term\n", form, i + 1, residual);
+      // linear: exact cancellation up to round-off; exact: the Hill approximation itself is
+      // off by O(r_H / r0) = 2e-6 (the octupole term of Saturn's tide).
+      EXPECT_LT(residual, std::string(form) == "linear" ? 1e-12 : 1e-5);
+    }
+  }
+}
+
+TEST(HillFrame, ExactAndLinearFormsAgreeNearTheOrigin) {
+  HillFrame linear(config_from(kRing)), exact(config_from(kRing, {"hill.form=\"exact\""}));
+  for (double y : {-900.0, -100.0, 10.0, 500.0}) {
+    const Vec3 x(250.0, y, 0);
+    const Vec3 a = linear.acceleration(x), b = exact.acceleration(x);
+    // Leading differences: O(x/r0) relative in the radial term, plus -W^2 x (x/r0)... the
+    // azimuthal term of the exact form is W^2 x - G M x / r^3 = O(W^2 x y / r0).
+    EXPECT_LT((a - b).norm(), 1e-4 * kOmega * kOmega * std::abs(y) * 3 + 1e-9) << "y = " << y;
+  }
+}
+
+TEST(Moonlet, GravityIsFiniteInsideAndExactOutside) {
+  Moonlet m(config_from(kRing, {"modules=[\"contact\", \"hill\", \"moonlet\"]", "moonlet.mass=1.27e10",
+                                "moonlet.radius=150.0"}),
+            1.0);
+  const double gm = kGravitationalConstant * 1.27e10;
+  EXPECT_NEAR(m.gravity(Vec3(300, 0, 0))[0], -gm / (300.0 * 300.0), 1e-15);
+  EXPECT_EQ(m.gravity(Vec3(0, 0, 0)).norm(), 0.0);
+  EXPECT_NEAR(m.gravity(Vec3(75, 0, 0))[0], -gm * 75 / std::pow(150.0, 3), 1e-15);
+}
