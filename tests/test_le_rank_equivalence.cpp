@@ -61,15 +61,16 @@ void compare_rank_counts(const std::string& text, const std::vector<std::string>
     MPI_Comm_free(&sub);
     if (rank != 0) continue;
     EXPECT_GT(offset, sweep) << "the offset must sweep the box";
+    // No ASSERT here: returning early on rank 0 would leave the others in the next collective.
     if (k == 1) {
       reference = s;
-      ASSERT_GT(s.size(), 100u);
+      EXPECT_GT(s.size(), 50u);
       continue;
     }
-    ASSERT_EQ(s.size(), reference.size()) << k << " ranks";
+    EXPECT_EQ(s.size(), reference.size()) << k << " ranks";
     long differ = 0;
     for (const auto& [id, state] : reference)
-      if (s.at(id) != state) ++differ;
+      if (!s.count(id) || s.at(id) != state) ++differ;
     EXPECT_EQ(differ, 0) << "particles differing bitwise between 1 and " << k << " ranks";
   }
 }
@@ -142,4 +143,10 @@ TEST(LeesEdwardsRanks, FrictionalShearedGasSlabsAlongY) {
 TEST(LeesEdwardsRanks, PropellerPatchWithMoonlet) {
   // offset after 11,000 steps of 0.4 s: 1.5 Omega0 x 1000 m x 4400 s = 1015 m > Lx
   compare_rank_counts(kRing, {}, 11000, 1000.0);
+}
+
+TEST(LeesEdwardsRanks, MoreRanksThanCells) {
+  // 4 ranks in a box 2.3 interaction ranges long: every slab is thinner than the range, so
+  // images reach across several ranks.
+  compare_rank_counts(kShearedGas, {"domain.hi=[0.0025, 0.005, 0.01]", "particles.volume_fraction=0.2"}, 3000, 0.0);
 }

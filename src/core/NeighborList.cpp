@@ -5,14 +5,26 @@
 
 namespace cassini {
 
-NeighborList::Grid NeighborList::make_grid(const Decomposition& dom, double range) {
+NeighborList::Grid NeighborList::make_grid(const Decomposition& dom, double range, std::size_t particles) {
   Grid g;
+  double len[3];
   for (int d = 0; d < 3; ++d) {
     const double lo = (d == dom.axis ? dom.slab_lo() : dom.lo[d]) - range;
     const double hi = (d == dom.axis ? dom.slab_hi() : dom.hi[d]) + range;
-    g.n[d] = d < dom.dims ? std::max(1, static_cast<int>((hi - lo) / range)) : 1;
     g.lo[d] = lo;
-    g.inv_size[d] = g.n[d] / (hi - lo);
+    len[d] = hi - lo;
+  }
+  const double max_cells = 8.0 * static_cast<double>(particles) + 1000.0;
+  double size = range;
+  for (;;) {
+    double cells = 1;
+    for (int d = 0; d < dom.dims; ++d) cells *= std::max(1.0, std::floor(len[d] / size));
+    if (cells <= max_cells) break;
+    size *= 1.5;
+  }
+  for (int d = 0; d < 3; ++d) {
+    g.n[d] = d < dom.dims ? std::max(1, static_cast<int>(len[d] / size)) : 1;
+    g.inv_size[d] = g.n[d] / len[d];
   }
   return g;
 }
@@ -25,7 +37,7 @@ int NeighborList::Grid::cell(const Vec3& x) const {
 }
 
 std::vector<std::size_t> NeighborList::spatial_order(const ParticleStore& p, const Decomposition& dom, double range) {
-  const Grid g = make_grid(dom, range);
+  const Grid g = make_grid(dom, range, p.nlocal);
   const std::size_t ncell = std::size_t(g.n[0]) * g.n[1] * g.n[2];
   std::vector<std::uint32_t> cell(p.nlocal), count(ncell + 1, 0);
   for (std::size_t i = 0; i < p.nlocal; ++i) ++count[(cell[i] = g.cell(p.x[i])) + 1];
@@ -36,7 +48,7 @@ std::vector<std::size_t> NeighborList::spatial_order(const ParticleStore& p, con
 }
 
 void NeighborList::build(const ParticleStore& p, const Decomposition& dom, double range, double skin) {
-  const Grid g = make_grid(dom, range);
+  const Grid g = make_grid(dom, range, p.size());
   const std::size_t n = p.size(), ncell = std::size_t(g.n[0]) * g.n[1] * g.n[2];
   cell_of_.resize(n);
   cell_start_.assign(ncell + 1, 0);

@@ -30,7 +30,9 @@ class NeighborList {
     int n[3];
     int cell(const Vec3& x) const;
   };
-  static Grid make_grid(const Decomposition& dom, double range);
+  // Cells of at least `range`, and never many more cells than particles: a few particles
+  // in a huge box must not allocate a huge grid.
+  static Grid make_grid(const Decomposition& dom, double range, std::size_t particles);
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
   std::vector<Eigen::Vector4d> sorted_;
 };

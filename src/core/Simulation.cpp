@@ -46,7 +46,23 @@ void Simulation::setup() {
   particles.nlocal = particles.size();
   rebuild();
   compute_forces();
+  check_initial_overlaps();
   for (auto& m : modules) m->setup(*this);
+}
+
+void Simulation::check_initial_overlaps() {
+  // Overlapping initial particles would start with a violent, unphysical push: refuse them,
+  // naming the worst particle (collective: every rank throws the same message).
+  const double worst = contact ? contact->max_overlap_fraction() : 0.0;
+  struct { double value; int rank; } local{worst, domain.rank}, global{};
+  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE_INT, MPI_MAXLOC, domain.comm);
+  if (global.value <= cfg.max_overlap_fraction) return;
+  std::int64_t id = contact && domain.rank == global.rank ? contact->worst_id() : 0;
+  MPI_Bcast(&id, 1, MPI_INT64_T, global.rank, domain.comm);
+  std::ostringstream os;
+  os << cfg.source << ": key 'particles': initial particles overlap by " << global.value
+     << " radii at particle " << id << ", expected at most guards.max_overlap = " << cfg.max_overlap_fraction;
+  throw ConfigError(os.str());
 }
 
 void Simulation::rebuild() {

@@ -76,6 +76,7 @@ class Simulation {
   void rebuild();
   void compute_forces();
   void check_guards();
+  void check_initial_overlaps();
   bool global_guard_pending();
   std::vector<Module*> stage_[5];
   std::string guard_message_;

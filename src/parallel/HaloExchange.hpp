@@ -37,6 +37,7 @@ class HaloExchange {
 
   std::int64_t removed = 0;
   double shear_momentum = 0;  // sum of m dv_x applied by Lees-Edwards crossings on this rank
+  std::int64_t shear_crossings = 0;  // particles wrapped through the sheared boundary here
 
  private:
   struct Image {

@@ -40,8 +40,10 @@ void ContactForces::force(Simulation& sim) {
       const Vec3 d = xi - X[j];
       const double r2 = d.squaredNorm(), R = ai + A[j];
       if (r2 >= R * R) {
-        if (fric) XI[k].setZero();
-        T[k] = 0;
+        if (T[k]) {  // contact just ended: forget the spring (writes only on transitions)
+          T[k] = 0;
+          if (fric) XI[k].setZero();
+        }
         continue;
       }
       onsets += (!T[k] && ID[i] < ID[j]);  // the lower id counts the pair, wherever it lives
@@ -120,6 +122,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
   std::sort(stash.begin(), stash.end(), before);
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      if (!touching_[k]) continue;  // separated during the drift: the spring is gone
       const HistoryEntry key{p.id[i], p.id[nl.partner[k]], {}};
       auto it = std::lower_bound(stash.begin(), stash.end(), key, before);
       if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) xi_[k] = it->xi;

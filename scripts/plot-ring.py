@@ -1,0 +1,46 @@
+"""Picture of a ring run from its particle dumps: surface density (log scale) over the patch
+and the velocity deviation from the Keplerian shear near the moonlet.
+   /usr/bin/python3 scripts/plot-ring.py RUN_DIR [OUT.png]
+"""
+import glob, math, os, re, sys
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+run = sys.argv[1]
+out = sys.argv[2] if len(sys.argv) > 2 else os.path.join(run, "ring.png")
+files = glob.glob(os.path.join(run, "dump", "step_*.rank*.txt"))
+if not files:
+    sys.exit(f"{run}: no dumps (set output.dump_every)")
+last = max(int(re.search(r"step_(\d+)", f).group(1)) for f in files)
+data = np.vstack([np.loadtxt(f, ndmin=2) for f in files if f"step_{last:09d}." in f])
+time = float(open(next(f for f in files if f"step_{last:09d}." in f)).readline().split()[4])
+x, y, vx, vy, a = data[:, 3], data[:, 4], data[:, 6], data[:, 7], data[:, 2]
+omega0 = math.sqrt(6.674e-11 * 5.68e26 / 1.17e8**3)
+
+fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 7.5))
+# Surface density Sigma = 3 rho / (4 a) in the thesis convention = mass per area on the plane.
+bins = (180, 40)
+mass = 500.0 * 4 / 3 * math.pi * a**3
+H, xe, ye = np.histogram2d(x, y, bins=bins, range=[[-9000, 9000], [-1000, 1000]], weights=mass)
+H /= (xe[1] - xe[0]) * (ye[1] - ye[0])
+im = ax1.imshow(np.log10(H.T + 1e-3), origin="lower", extent=[-9000, 9000, -1000, 1000], aspect="auto", cmap="viridis")
+fig.colorbar(im, ax=ax1, label="log10 surface density (kg/m^2)")
+ax1.add_patch(plt.Circle((0, 0), 150, color="w", fill=False))
+ax1.set_title(f"{os.path.basename(os.path.normpath(run))}: t = {time:.0f} s = {time * omega0 / (2 * math.pi):.2f} orbits")
+ax1.set_xlabel("x (azimuthal, m)")
+ax1.set_ylabel("y (radial, m)")
+near = (np.abs(x) < 2500)
+dv = np.hypot(vx - 1.5 * omega0 * y, vy)
+sc = ax2.scatter(x[near], y[near], c=dv[near], s=2, cmap="magma", vmin=0, vmax=np.percentile(dv, 99))
+fig.colorbar(sc, ax=ax2, label="|v - 1.5 Omega0 y e_x| (m/s)")
+ax2.add_patch(plt.Circle((0, 0), 150, color="c", fill=False))
+ax2.set_xlim(-2500, 2500)
+ax2.set_ylim(-1000, 1000)
+ax2.set_xlabel("x (m)")
+ax2.set_ylabel("y (m)")
+fig.tight_layout()
+fig.savefig(out, dpi=110)
+print(out)
