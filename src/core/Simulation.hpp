@@ -55,6 +55,11 @@ class Simulation {
   HaloExchange halo;
   std::vector<HistoryEntry> history;  // tangential springs in transit during a rebuild
 
+  // Set before the initial_integrate stage: the integrator measures, while it drifts, the
+  // largest squared displacement since the last rebuild relative to the imposed flow
+  // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).
+  double stream = 0, max_drift2 = 0;
+
   double dt = 0, time = 0;
   long step_count = 0;
   double range = 0, skin = 0;
