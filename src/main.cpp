@@ -11,6 +11,7 @@
 #include "core/Config.hpp"
 #include "core/Simulation.hpp"
 #include "io/RunOutput.hpp"
+#include "io/Snapshot.hpp"
 
 namespace fs = std::filesystem;
 using namespace cassini;
@@ -25,10 +26,12 @@ int main(int argc, char** argv) {
   std::string case_path, out_dir;
   std::vector<std::string> overrides;
   bool force = false;
+  std::string restart;
   app.add_option("case", case_path, "case directory (holding case.toml) or case file")->required();
   app.add_option("--set", overrides, "override a case key, e.g. --set time.end=1.0 (repeatable)");
   app.add_option("--out", out_dir, "output directory (default runs/<case name>)");
   app.add_flag("--force", force, "replace an existing output directory");
+  app.add_option("--restart", restart, "continue from a snapshot file (snap_<step>.h5md) of an earlier run");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -48,9 +51,12 @@ int main(int argc, char** argv) {
     std::ostringstream resolved;
     resolved << cf.table();
     out.write_text("case.toml", resolved.str() + "\n");
+    out.case_text = resolved.str();
 
     Simulation sim(cfg, MPI_COMM_WORLD);
+    if (!restart.empty()) read_snapshot(sim, restart);
     sim.setup();
+    if (!restart.empty()) out.log("restarted from " + restart + " at step " + std::to_string(sim.step_count));
     std::ostringstream head;
     head << "cassini: " << file << " on " << nranks << " rank(s), " << sim.total_particles() << " particles, dt = "
          << sim.dt << " s, end = " << cfg.t_end << " s\nactive modules:";

@@ -71,6 +71,7 @@ struct Config {
   bool force_dt = false;
 
   double dump_every = 0;      // simulated time between text dumps (0: none)
+  double snapshot_every = 0;  // simulated time between H5MD snapshots (0: none)
   double observe_every = 0;   // simulated time between observables rows (0: 100 rows per run)
   double progress_every = 2;  // wall seconds between progress lines
 

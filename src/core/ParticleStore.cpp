@@ -85,8 +85,8 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
 }
 
 std::size_t ParticleStore::packed_size() const {
-  // id, species, radius, mass, x, v, x_build (+ omega, wall_xi)
-  return 4 + 9 + (rotation ? 3 + 3 * walls : 0);
+  // id, species, radius, mass, x, v, x_build, f (+ omega, torque, wall_xi)
+  return 4 + 12 + (rotation ? 6 + 3 * walls : 0);
 }
 
 void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
@@ -97,9 +97,11 @@ void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
   buf.push_back(species[i]);
   buf.push_back(radius[i]);
   buf.push_back(mass[i]);
-  for (const Vec3* q : {&x[i], &v[i], &x_build[i]}) buf.insert(buf.end(), q->data(), q->data() + 3);
+  // f travels too: after a rebuild at the end of a step the next kick needs F(t).
+  for (const Vec3* q : {&x[i], &v[i], &x_build[i], &f[i]}) buf.insert(buf.end(), q->data(), q->data() + 3);
   if (rotation) {
     buf.insert(buf.end(), omega[i].data(), omega[i].data() + 3);
+    buf.insert(buf.end(), torque[i].data(), torque[i].data() + 3);
     for (int w = 0; w < walls; ++w) buf.insert(buf.end(), wall_xi[i * walls + w].data(), wall_xi[i * walls + w].data() + 3);
   }
 }
@@ -112,10 +114,12 @@ std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o)
   add(pid, static_cast<int>(buf[o + 1]), buf[o + 2], buf[o + 3], pos, vel);
   const std::size_t i = size() - 1;
   x_build[i] = Vec3(buf[o + 10], buf[o + 11], buf[o + 12]);
-  o += 13;
+  f[i] = Vec3(buf[o + 13], buf[o + 14], buf[o + 15]);
+  o += 16;
   if (rotation) {
     omega[i] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
-    o += 3;
+    torque[i] = Vec3(buf[o + 3], buf[o + 4], buf[o + 5]);
+    o += 6;
     for (int w = 0; w < walls; ++w, o += 3) wall_xi[i * walls + w] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
   }
   return o;

@@ -42,11 +42,15 @@ void Simulation::setup() {
     for (int k = 0; k < 5; ++k)
       if (s & (1u << k)) stage_[k].push_back(m.get());
   }
-  if (particles.size() == 0) place_particles(cfg, domain, particles);
+  if (particles.size() == 0 && !restored) place_particles(cfg, domain, particles);
   particles.nlocal = particles.size();
   rebuild();
-  compute_forces();
-  check_initial_overlaps();
+  if (!restored) {
+    compute_forces();
+    check_initial_overlaps();
+  } else if (contact) {
+    contact->refresh_diagnostics(*this);
+  }
   for (auto& m : modules) m->setup(*this);
 }
 
@@ -140,6 +144,7 @@ void Simulation::run(RunOutput* out) {
   const long nsteps = std::lround(cfg.t_end / dt);
   const long observe_every = std::max(1L, std::lround(cfg.observe_every / dt));
   const long dump_every = cfg.dump_every > 0 ? std::max(1L, std::lround(cfg.dump_every / dt)) : 0;
+  const long snap_every = cfg.snapshot_every > 0 ? std::max(1L, std::lround(cfg.snapshot_every / dt)) : 0;
   const long n_total = total_particles();
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
@@ -148,6 +153,7 @@ void Simulation::run(RunOutput* out) {
   if (out) {
     out->observe(*this);
     if (dump_every) out->dump(*this, "step");
+    if (snap_every && !restored) out->snapshot(*this);
   }
   while (step_count < nsteps) {
     try {
@@ -158,6 +164,7 @@ void Simulation::run(RunOutput* out) {
     }
     if (out && step_count % observe_every == 0) out->observe(*this);
     if (out && dump_every && step_count % dump_every == 0) out->dump(*this, "step");
+    if (out && snap_every && step_count % snap_every == 0) out->snapshot(*this);
     if (out && (step_count & 63) == 0) {
       const auto now = clock::now();
       const double since = std::chrono::duration<double>(now - last_print).count();

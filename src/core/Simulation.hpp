@@ -32,9 +32,13 @@ class Simulation {
   Simulation(const Config& cfg, MPI_Comm comm);
   ~Simulation();
 
-  // Places the initial particles (or takes `initial` if given), builds the first halo and
-  // neighbour list and evaluates F(0).
+  // Places the initial particles (unless some were added or restored), builds the first
+  // halo and neighbour list and evaluates F(0) (unless restored from a snapshot).
   void setup();
+  // Migration, ghosts and neighbour list from scratch. Also called before a snapshot, so that
+  // a restart (which starts with a rebuild) continues bitwise like the uninterrupted run.
+  void rebuild();
+  bool restored = false;  // state (including F) came from a snapshot
   void step();
   // Steps to cfg.t_end; with `out`, prints progress and writes observables and dumps.
   void run(RunOutput* out = nullptr);
@@ -78,7 +82,6 @@ class Simulation {
   std::vector<std::string> module_names() const;
 
  private:
-  void rebuild();
   void compute_forces();
   void check_guards();
   void check_initial_overlaps();
@@ -86,6 +89,7 @@ class Simulation {
   std::vector<Module*> stage_[5];
   std::string guard_message_;
   double time_at_build_ = 0;
+  friend void read_snapshot(Simulation&, const std::string&);
 };
 
 }  // namespace cassini

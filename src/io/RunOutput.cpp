@@ -8,6 +8,7 @@
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
+#include "io/Snapshot.hpp"
 #include "physics/Moonlet.hpp"
 
 namespace fs = std::filesystem;
@@ -85,6 +86,8 @@ void RunOutput::observe(Simulation& sim) {
        << "," << max_overlap << "," << sums[7] << "\n";
   obs_.flush();
 }
+
+void RunOutput::snapshot(Simulation& sim) { write_snapshot(sim, dir_, case_text); }
 
 void RunOutput::dump(const Simulation& sim, const std::string& tag) {
   const ParticleStore& p = sim.particles;

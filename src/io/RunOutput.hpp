@@ -21,7 +21,9 @@ class RunOutput {
   void observe(Simulation& sim);                     // collective: one observables row
   void dump(const Simulation& sim, const std::string& tag);  // every rank its own file
   void summary(Simulation& sim, double wall_seconds, long steps_run);  // collective
+  void snapshot(Simulation& sim);                    // collective: dir/snap_<step>.h5md
   const std::string& dir() const { return dir_; }
+  std::string case_text;                             // resolved case, stored in snapshots
 
  private:
   std::string dir_;

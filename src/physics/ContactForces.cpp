@@ -90,16 +90,37 @@ double ContactForces::elastic_energy(const Simulation& sim) const {
   return e;
 }
 
-void ContactForces::pre_rebuild(Simulation& sim) {
-  if (!law_.friction()) return;
+void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& out) const {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
-  auto& stash = sim.history;
-  stash.clear();
-  if (nl.start.size() != p.nlocal + 1 || xi_.size() != nl.size()) return;  // no list yet
+  out.clear();
+  if (!law_.friction() || nl.start.size() != p.nlocal + 1 || xi_.size() != nl.size()) return;
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k)
-      if (!xi_[k].isZero(0)) stash.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});
+      if (!xi_[k].isZero(0)) out.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});
+}
+
+void ContactForces::refresh_diagnostics(const Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  contacts_ = 0;
+  max_overlap_ = overlap_sum_ = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const double R = p.radius[i] + p.radius[j], r = (p.x[i] - p.x[j]).norm();
+      if (r >= R) continue;
+      ++contacts_;
+      const double frac = (R - r) / std::min(p.radius[i], p.radius[j]);
+      overlap_sum_ += frac;
+      if (frac > max_overlap_) { max_overlap_ = frac; worst_id_ = p.id[i]; }
+    }
+}
+
+void ContactForces::pre_rebuild(Simulation& sim) {
+  // Without a list yet (first rebuild, or after a restart) keep what is in the stash.
+  if (!law_.friction() || sim.neighbors.start.size() != sim.particles.nlocal + 1) return;
+  springs(sim, sim.history);
 }
 
 void ContactForces::post_rebuild(Simulation& sim) {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/Module.hpp"
+#include "parallel/HaloExchange.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 namespace cassini {
@@ -17,6 +18,10 @@ class ContactForces : public Module {
 
   void force(Simulation& sim) override;
   void pre_rebuild(Simulation& sim) override;
+  // Tangential springs as (owner id, partner id, xi) for every owned contact with history.
+  void springs(const Simulation& sim, std::vector<HistoryEntry>& out) const;
+  // Recomputes contact counts and overlaps without touching forces or springs (after a restart).
+  void refresh_diagnostics(const Simulation& sim);
   void post_rebuild(Simulation& sim) override;
 
   // Diagnostics of the last force evaluation (this rank).

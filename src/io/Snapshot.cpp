@@ -1,0 +1,408 @@
+#include "io/Snapshot.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include <hdf5.h>
+
+#include "core/CaseFile.hpp"
+#include "core/Simulation.hpp"
+#include "physics/ContactForces.hpp"
+
+namespace cassini {
+namespace {
+
+// Thin RAII over HDF5 handles.
+struct Handle {
+  hid_t id = -1;
+  herr_t (*close)(hid_t) = nullptr;
+  Handle(hid_t i, herr_t (*c)(hid_t), const std::string& what) : id(i), close(c) {
+    if (id < 0) throw std::runtime_error("HDF5: " + what);
+  }
+  Handle(const Handle&) = delete;
+  ~Handle() {
+    if (id >= 0) close(id);
+  }
+  operator hid_t() const { return id; }
+};
+
+void check(herr_t r, const std::string& what) {
+  if (r < 0) throw std::runtime_error("HDF5: " + what);
+}
+
+Handle group(hid_t parent, const std::string& name) {
+  return Handle(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group " + name);
+}
+
+void attr_string(hid_t obj, const std::string& name, const std::string& value) {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose, "type");
+  check(H5Tset_size(type, value.size() + 1), "size");
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose, "space");
+  Handle a(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, "attr " + name);
+  check(H5Awrite(a, type, value.c_str()), "write attr " + name);
+}
+
+template <class T>
+void attr_array(hid_t obj, const std::string& name, hid_t type, const std::vector<T>& v) {
+  const hsize_t n = v.size();
+  Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose, "space");
+  Handle a(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, "attr " + name);
+  check(H5Awrite(a, type, v.data()), "write attr " + name);
+}
+
+// Small dataset written identically by every rank (collective metadata, rank-0-style data).
+template <class T>
+void small_dataset(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& dims, const T* data,
+                   hid_t dxpl) {
+  Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose, "space");
+  Handle d(H5Dcreate2(parent, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose, name);
+  check(H5Dwrite(d, type, H5S_ALL, H5S_ALL, dxpl, data), "write " + name);
+}
+
+// Rows [offset, offset + rows) of a [1][total][width] (or [1][total]) dataset, collectively.
+void rows_dataset(hid_t parent, const std::string& name, hid_t type, hsize_t total, hsize_t offset, hsize_t rows,
+                  hsize_t width, const void* data, hid_t dxpl, bool frame_axis = true) {
+  std::vector<hsize_t> dims, start, count;
+  if (frame_axis) { dims.push_back(1); start.push_back(0); count.push_back(1); }
+  dims.push_back(total); start.push_back(offset); count.push_back(rows);
+  if (width > 1) { dims.push_back(width); start.push_back(0); count.push_back(width); }
+  Handle file_space(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose, "space");
+  Handle d(H5Dcreate2(parent, name.c_str(), type, file_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose, name);
+  Handle mem(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose, "mem space");
+  if (rows == 0) {
+    check(H5Sselect_none(file_space), "select none");
+    check(H5Sselect_none(mem), "select none");
+  } else {
+    check(H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), "hyperslab");
+  }
+  if (total == 0) return;  // an empty dataset (e.g. no contacts): nothing to write
+  static const double dummy[3] = {0, 0, 0};  // HDF5 refuses a null buffer even for an empty selection
+  check(H5Dwrite(d, type, mem, file_space, dxpl, data ? data : dummy), "write " + name);
+}
+
+// An H5MD time-dependent element holding one frame: name/{step, time, value}.
+void element(hid_t parent, const std::string& name, hid_t type, hsize_t total, hsize_t offset, hsize_t rows,
+             hsize_t width, const void* data, long step, double time, hid_t dxpl) {
+  Handle g = group(parent, name);
+  const std::int64_t s = step;
+  small_dataset(g, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
+  small_dataset(g, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+  rows_dataset(g, "value", type, total, offset, rows, width, data, dxpl);
+}
+
+double id_bits(std::int64_t id) { double d; std::memcpy(&d, &id, 8); return d; }
+std::int64_t bits_id(double d) { std::int64_t i; std::memcpy(&i, &d, 8); return i; }
+
+}  // namespace
+
+std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  sim.rebuild();  // a restart starts with a rebuild: do the same here so both continue alike
+  const ParticleStore& p = sim.particles;
+  const Decomposition& dom = sim.domain;
+  const int P = dom.nranks;
+  const int nw = p.rotation ? p.walls : 0;
+  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw]
+  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw;
+
+  // Redistribute rows into id blocks so that rows come out ordered by id.
+  std::int64_t max_local = -1, max_id = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) max_local = std::max(max_local, p.id[i]);
+  MPI_Allreduce(&max_local, &max_id, 1, MPI_INT64_T, MPI_MAX, dom.comm);
+  std::vector<std::vector<double>> out(P);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const int b = static_cast<int>(static_cast<long double>(p.id[i]) * P / (max_id + 1));
+    auto& r = out[b];
+    r.insert(r.end(), {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i]});
+    for (const Vec3* q : {&p.x[i], &p.v[i], &p.f[i]}) r.insert(r.end(), q->data(), q->data() + 3);
+    if (p.rotation) {
+      r.insert(r.end(), p.omega[i].data(), p.omega[i].data() + 3);
+      r.insert(r.end(), p.torque[i].data(), p.torque[i].data() + 3);
+      for (int w = 0; w < nw; ++w) r.insert(r.end(), p.wall_xi[i * nw + w].data(), p.wall_xi[i * nw + w].data() + 3);
+    }
+  }
+  std::vector<int> sc(P), rc(P), sd(P), rd(P);
+  std::vector<double> sendbuf, in;
+  for (int r = 0; r < P; ++r) {
+    sc[r] = int(out[r].size());
+    sd[r] = int(sendbuf.size());
+    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
+  }
+  MPI_Alltoall(sc.data(), 1, MPI_INT, rc.data(), 1, MPI_INT, dom.comm);
+  int tot = 0;
+  for (int r = 0; r < P; ++r) { rd[r] = tot; tot += rc[r]; }
+  in.resize(tot);
+  MPI_Alltoallv(sendbuf.data(), sc.data(), sd.data(), MPI_DOUBLE, in.data(), rc.data(), rd.data(), MPI_DOUBLE, dom.comm);
+  const std::size_t n = in.size() / width;
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return bits_id(in[a * width]) < bits_id(in[b * width]); });
+
+  long long mine = static_cast<long long>(n), offset = 0, total = 0;
+  MPI_Exscan(&mine, &offset, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+  if (dom.rank == 0) offset = 0;
+  MPI_Allreduce(&mine, &total, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+
+  // Column arrays in id order.
+  std::vector<std::int64_t> ids(n);
+  std::vector<std::int32_t> species(n);
+  std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n), w(p.rotation ? 3 * n : 0),
+      t(p.rotation ? 3 * n : 0), wx(3 * nw * n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double* r = &in[order[k] * width];
+    ids[k] = bits_id(r[0]);
+    species[k] = static_cast<std::int32_t>(r[1]);
+    radius[k] = r[2];
+    mass[k] = r[3];
+    for (int c = 0; c < 3; ++c) {
+      x[3 * k + c] = r[4 + c];
+      v[3 * k + c] = r[7 + c];
+      f[3 * k + c] = r[10 + c];
+      if (p.rotation) { w[3 * k + c] = r[13 + c]; t[3 * k + c] = r[16 + c]; }
+    }
+    for (int c = 0; c < 3 * nw; ++c) wx[3 * nw * k + c] = r[19 + c];
+  }
+
+  std::ostringstream name;
+  name << dir << "/snap_" << std::setw(9) << std::setfill('0') << sim.step_count << ".h5md";
+  const std::string final_name = name.str(), tmp = final_name + ".partial";
+
+  {
+    Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "fapl");
+    check(H5Pset_fapl_mpio(fapl, dom.comm, MPI_INFO_NULL), "mpio");
+    Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose, "create " + tmp);
+    Handle dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, "dxpl");
+    check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "collective");
+    const long step = sim.step_count;
+    const double time = sim.time;
+    {
+      Handle h5md = group(file, "h5md");
+      attr_array<int>(h5md, "version", H5T_NATIVE_INT, {1, 1});
+      Handle author = group(h5md, "author");
+      attr_string(author, "name", "cassini user");
+      Handle creator = group(h5md, "creator");
+      attr_string(creator, "name", "cassini");
+      attr_string(creator, "version", "0.1");
+    }
+    Handle particles = group(file, "particles");
+    Handle grains = group(particles, "grains");
+    const hsize_t N = total, off = offset, rows = n;
+    element(grains, "position", H5T_NATIVE_DOUBLE, N, off, rows, 3, x.data(), step, time, dxpl);
+    element(grains, "velocity", H5T_NATIVE_DOUBLE, N, off, rows, 3, v.data(), step, time, dxpl);
+    element(grains, "force", H5T_NATIVE_DOUBLE, N, off, rows, 3, f.data(), step, time, dxpl);
+    element(grains, "id", H5T_NATIVE_INT64, N, off, rows, 1, ids.data(), step, time, dxpl);
+    element(grains, "species", H5T_NATIVE_INT32, N, off, rows, 1, species.data(), step, time, dxpl);
+    element(grains, "radius", H5T_NATIVE_DOUBLE, N, off, rows, 1, radius.data(), step, time, dxpl);
+    element(grains, "mass", H5T_NATIVE_DOUBLE, N, off, rows, 1, mass.data(), step, time, dxpl);
+    if (p.rotation) {
+      element(grains, "omega", H5T_NATIVE_DOUBLE, N, off, rows, 3, w.data(), step, time, dxpl);
+      element(grains, "torque", H5T_NATIVE_DOUBLE, N, off, rows, 3, t.data(), step, time, dxpl);
+      if (nw > 0) element(grains, "wall_xi", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nw, wx.data(), step, time, dxpl);
+    }
+    {
+      Handle box = group(grains, "box");
+      attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
+      std::string bounds;
+      for (int d = 0; d < 3; ++d) bounds += std::string(d ? "," : "") + (dom.periodic(d) || (d == 1 && dom.shear.enabled) ? "periodic" : "none");
+      attr_string(box, "boundary", bounds);
+      // Edge vectors as rows; the Lees-Edwards offset is the xy tilt (wrapped to [-Lx/2, Lx/2)).
+      double tilt = 0;
+      if (dom.shear.enabled) {
+        tilt = dom.shear.wrapped(dom.length[0]);
+        if (tilt >= 0.5 * dom.length[0]) tilt -= dom.length[0];
+      }
+      const double edges[9] = {dom.length[0], 0, 0, tilt, dom.length[1], 0, 0, 0, dom.length[2]};
+      Handle eg = group(box, "edges");
+      const std::int64_t s = step;
+      small_dataset(eg, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
+      small_dataset(eg, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+      small_dataset(eg, "value", H5T_NATIVE_DOUBLE, {1, 3, 3}, edges, dxpl);
+      const double lo[3] = {dom.lo[0], dom.lo[1], dom.lo[2]};
+      small_dataset(box, "origin", H5T_NATIVE_DOUBLE, {3}, lo, dxpl);
+    }
+    if (dom.shear.enabled) {
+      Handle le = group(grains, "lees_edwards");
+      const std::int64_t s = step;
+      const double offset_unwrapped = dom.shear.offset;
+      const std::int32_t direction = 0, normal = 1;
+      for (const char* nm : {"offset", "direction", "normal"}) {
+        Handle g = group(le, nm);
+        small_dataset(g, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
+        small_dataset(g, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+        if (std::string(nm) == "offset") small_dataset(g, "value", H5T_NATIVE_DOUBLE, {1}, &offset_unwrapped, dxpl);
+        else small_dataset(g, "value", H5T_NATIVE_INT32, {1}, nm[0] == 'd' ? &direction : &normal, dxpl);
+      }
+    }
+    {  // contact springs (only with friction): each rank writes its own block
+      std::vector<HistoryEntry> springs;
+      if (sim.contact) sim.contact->springs(sim, springs);
+      long long m = static_cast<long long>(springs.size()), moff = 0, mtot = 0;
+      MPI_Exscan(&m, &moff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      if (dom.rank == 0) moff = 0;
+      MPI_Allreduce(&m, &mtot, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      std::vector<std::int64_t> owner(m), partner(m);
+      std::vector<double> xi(3 * m);
+      for (long long k = 0; k < m; ++k) {
+        owner[k] = springs[k].owner;
+        partner[k] = springs[k].partner;
+        for (int c = 0; c < 3; ++c) xi[3 * k + c] = springs[k].xi[c];
+      }
+      Handle cg = group(file, "contacts");
+      rows_dataset(cg, "owner", H5T_NATIVE_INT64, mtot, moff, m, 1, owner.data(), dxpl, false);
+      rows_dataset(cg, "partner", H5T_NATIVE_INT64, mtot, moff, m, 1, partner.data(), dxpl, false);
+      rows_dataset(cg, "xi", H5T_NATIVE_DOUBLE, mtot, moff, m, 3, xi.data(), dxpl, false);
+    }
+    {
+      Handle params = group(file, "parameters");
+      attr_string(params, "case", case_text);
+      attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
+      const double state[3] = {time, dom.shear.offset, sim.dt};
+      small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, state, dxpl);
+      const std::int64_t s = step;
+      small_dataset(params, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
+      attr_string(params, "complete", "yes");  // last thing written
+    }
+  }
+  MPI_Barrier(dom.comm);
+  if (dom.rank == 0) {
+    std::filesystem::rename(tmp, final_name);
+    // XDMF sidecar: ParaView opens the particles as points with their scalars.
+    std::ofstream xm(final_name.substr(0, final_name.size() - 5) + ".xdmf");
+    const std::string h5 = std::filesystem::path(final_name).filename().string();
+    xm << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"grains\" GridType=\"Uniform\">\n"
+       << "   <Time Value=\"" << sim.time << "\"/>\n"
+       << "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << total << "\"/>\n"
+       << "   <Geometry GeometryType=\"XYZ\">\n    <DataItem Dimensions=\"1 " << total
+       << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/position/value</DataItem>\n   </Geometry>\n";
+    for (const char* s : {"radius", "mass"})
+      xm << "   <Attribute Name=\"" << s << "\" Center=\"Node\">\n    <DataItem Dimensions=\"1 " << total
+         << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/" << s
+         << "/value</DataItem>\n   </Attribute>\n";
+    xm << "   <Attribute Name=\"velocity\" Center=\"Node\" AttributeType=\"Vector\">\n    <DataItem Dimensions=\"1 " << total
+       << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/velocity/value</DataItem>\n   </Attribute>\n";
+    xm << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  }
+  MPI_Barrier(dom.comm);
+  return final_name;
+}
+
+namespace {
+
+// Reads rows [offset, offset + rows) of dataset `path` (frame axis first when present).
+void read_rows(hid_t file, const std::string& path, hid_t type, hsize_t offset, hsize_t rows, hsize_t width,
+               void* data, hid_t dxpl, bool frame_axis = true) {
+  Handle d(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose, "missing dataset " + path);
+  Handle fs(H5Dget_space(d), H5Sclose, "space");
+  std::vector<hsize_t> start, count;
+  if (frame_axis) { start.push_back(0); count.push_back(1); }
+  start.push_back(offset); count.push_back(rows);
+  if (width > 1) { start.push_back(0); count.push_back(width); }
+  Handle mem(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose, "mem");
+  if (rows == 0) {
+    check(H5Sselect_none(fs), "none");
+    check(H5Sselect_none(mem), "none");
+  } else {
+    check(H5Sselect_hyperslab(fs, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), "hyperslab " + path);
+  }
+  hsize_t dims[4] = {0, 0, 0, 0};
+  H5Sget_simple_extent_dims(fs, dims, nullptr);
+  if (dims[frame_axis ? 1 : 0] == 0) return;
+  static double dummy[3];
+  check(H5Dread(d, type, mem, fs, dxpl, data ? data : dummy), "read " + path);
+}
+
+hsize_t extent(hid_t file, const std::string& path, int axis) {
+  Handle d(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose, "missing dataset " + path);
+  Handle fs(H5Dget_space(d), H5Sclose, "space");
+  hsize_t dims[4] = {0, 0, 0, 0};
+  H5Sget_simple_extent_dims(fs, dims, nullptr);
+  return dims[axis];
+}
+
+}  // namespace
+
+void read_snapshot(Simulation& sim, const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const Decomposition& dom = sim.domain;
+  ParticleStore& p = sim.particles;
+  try {
+    Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "fapl");
+    check(H5Pset_fapl_mpio(fapl, dom.comm, MPI_INFO_NULL), "mpio");
+    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose, "open");
+    if (H5Aexists_by_name(file, "parameters", "complete", H5P_DEFAULT) <= 0) throw std::runtime_error("incomplete");
+    Handle dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, "dxpl");
+    check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "collective");
+    const hsize_t N = extent(file, "particles/grains/position/value", 1);
+    const hsize_t lo = N * dom.rank / dom.nranks, hi = N * (dom.rank + 1) / dom.nranks, n = hi - lo;
+    std::vector<std::int64_t> ids(n);
+    std::vector<std::int32_t> species(n);
+    std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n);
+    const std::string g = "particles/grains/";
+    read_rows(file, g + "id/value", H5T_NATIVE_INT64, lo, n, 1, ids.data(), dxpl);
+    read_rows(file, g + "species/value", H5T_NATIVE_INT32, lo, n, 1, species.data(), dxpl);
+    read_rows(file, g + "radius/value", H5T_NATIVE_DOUBLE, lo, n, 1, radius.data(), dxpl);
+    read_rows(file, g + "mass/value", H5T_NATIVE_DOUBLE, lo, n, 1, mass.data(), dxpl);
+    read_rows(file, g + "position/value", H5T_NATIVE_DOUBLE, lo, n, 3, x.data(), dxpl);
+    read_rows(file, g + "velocity/value", H5T_NATIVE_DOUBLE, lo, n, 3, v.data(), dxpl);
+    read_rows(file, g + "force/value", H5T_NATIVE_DOUBLE, lo, n, 3, f.data(), dxpl);
+    const int nw = p.rotation ? p.walls : 0;
+    std::vector<double> w(p.rotation ? 3 * n : 0), t(p.rotation ? 3 * n : 0), wx(3 * nw * n);
+    if (p.rotation) {
+      read_rows(file, g + "omega/value", H5T_NATIVE_DOUBLE, lo, n, 3, w.data(), dxpl);
+      read_rows(file, g + "torque/value", H5T_NATIVE_DOUBLE, lo, n, 3, t.data(), dxpl);
+      if (nw > 0) read_rows(file, g + "wall_xi/value", H5T_NATIVE_DOUBLE, lo, n, 3 * nw, wx.data(), dxpl);
+    }
+    double state[3];
+    std::int64_t step = 0;
+    read_rows(file, "parameters/time_offset_dt", H5T_NATIVE_DOUBLE, 0, 3, 1, state, dxpl, false);
+    read_rows(file, "parameters/step", H5T_NATIVE_INT64, 0, 1, 1, &step, dxpl, false);
+    // Contact springs: everyone reads all and keeps those of its particles.
+    const hsize_t M = extent(file, "contacts/owner", 0);
+    std::vector<std::int64_t> owner(M), partner(M);
+    std::vector<double> xi(3 * M);
+    read_rows(file, "contacts/owner", H5T_NATIVE_INT64, 0, M, 1, owner.data(), dxpl, false);
+    read_rows(file, "contacts/partner", H5T_NATIVE_INT64, 0, M, 1, partner.data(), dxpl, false);
+    read_rows(file, "contacts/xi", H5T_NATIVE_DOUBLE, 0, M, 3, xi.data(), dxpl, false);
+
+    p.resize(0);
+    for (hsize_t k = 0; k < n; ++k) {
+      p.add(ids[k], species[k], radius[k], mass[k], Vec3(x[3 * k], x[3 * k + 1], x[3 * k + 2]),
+            Vec3(v[3 * k], v[3 * k + 1], v[3 * k + 2]));
+      p.f[k] = Vec3(f[3 * k], f[3 * k + 1], f[3 * k + 2]);
+      if (p.rotation) {
+        p.omega[k] = Vec3(w[3 * k], w[3 * k + 1], w[3 * k + 2]);
+        p.torque[k] = Vec3(t[3 * k], t[3 * k + 1], t[3 * k + 2]);
+        for (int q = 0; q < nw; ++q)
+          p.wall_xi[k * nw + q] = Vec3(wx[3 * nw * k + 3 * q], wx[3 * nw * k + 3 * q + 1], wx[3 * nw * k + 3 * q + 2]);
+      }
+    }
+    p.nlocal = p.size();
+    std::vector<std::int64_t> mine(ids);
+    std::sort(mine.begin(), mine.end());
+    sim.history.clear();
+    for (hsize_t k = 0; k < M; ++k)
+      if (std::binary_search(mine.begin(), mine.end(), owner[k]))
+        sim.history.push_back({owner[k], partner[k], Vec3(xi[3 * k], xi[3 * k + 1], xi[3 * k + 2])});
+    if (std::abs(state[2] - sim.dt) > 1e-12 * sim.dt)
+      throw ConfigError(path + ": snapshot dt " + std::to_string(state[2]) + " differs from the case's dt " +
+                        std::to_string(sim.dt) + " (a restart must keep the time step)");
+    sim.step_count = step;
+    sim.time = state[0];
+    sim.domain.shear.offset = state[1];
+    sim.time_at_build_ = state[0];
+    sim.restored = true;
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ConfigError(path + ": not a complete cassini snapshot (truncated, still being written, or not H5MD from "
+                             "cassini): " + e.what());
+  }
+}
+
+}  // namespace cassini

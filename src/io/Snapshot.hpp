@@ -1,0 +1,29 @@
+#pragma once
+// Particle snapshots in the H5MD 1.1 layout, one file per frame (snap_<step>.h5md), written
+// collectively with parallel HDF5: every rank writes its own rows (no gather to rank 0).
+// Rows are ordered by particle id whatever the rank count: particles are first redistributed
+// into id blocks. A frame is written under a temporary name and renamed when complete, so a
+// killed run leaves only complete frames that look complete.
+//
+// Layout (h5py: f["particles/grains/position/value"][0]):
+//   h5md/                          version [1,1], author, creator
+//   particles/grains/{position, velocity, omega*, id, species, radius, mass}/{step,time,value}
+//   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
+//   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
+//   contacts/{owner, partner, xi}   tangential springs (restart needs them)
+//   parameters/                    case (resolved TOML text), units; wall_xi per particle
+// (* only when the scene rotates)
+#include <string>
+
+namespace cassini {
+
+class Simulation;
+
+// Writes the current state of `sim` to dir/snap_<step>.h5md; returns the file name.
+std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text);
+
+// Replaces the particles of a freshly constructed (not yet set up) simulation by those of a
+// snapshot, with contact history, step, time and shear offset. Collective.
+void read_snapshot(Simulation& sim, const std::string& file);
+
+}  // namespace cassini
