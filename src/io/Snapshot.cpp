@@ -264,6 +264,10 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
       const double state[3] = {time, dom.shear.offset, sim.dt};
       small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, state, dxpl);
+      const double rate = dom.shear.enabled ? dom.shear.rate : 0.0;
+      small_dataset(params, "shear_rate", H5T_NATIVE_DOUBLE, {1}, &rate, dxpl);
+      const std::int32_t planar = dom.dims == 2;
+      small_dataset(params, "planar", H5T_NATIVE_INT32, {1}, &planar, dxpl);
       const std::int64_t s = step;
       small_dataset(params, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
       attr_string(params, "complete", "yes");  // last thing written

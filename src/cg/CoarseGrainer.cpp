@@ -1,0 +1,88 @@
+#include "cg/CoarseGrainer.hpp"
+
+#include <cmath>
+
+namespace cassini::cg {
+
+void Fields::add(const Fields& o, double w) {
+  for (std::size_t i = 0; i < density.size(); ++i) density[i] += w * o.density[i];
+  for (std::size_t i = 0; i < momentum.size(); ++i) momentum[i] += w * o.momentum[i];
+  for (std::size_t i = 0; i < kinetic.size(); ++i) kinetic[i] += w * o.kinetic[i];
+  for (std::size_t i = 0; i < background.size(); ++i) background[i] += w * o.background[i];
+}
+
+void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k,
+                const Background& bg, Fields& out) {
+  const double c = k.cutoff(), dv = g.cell_volume();
+  struct Hit {
+    std::size_t point;
+    double w;
+  };
+  std::vector<Hit> hits;
+  for (std::size_t p = begin; p < end; ++p) {
+    const double* x = &f.x[3 * p];
+    const double* v = &f.v[3 * p];
+    hits.clear();
+    double total = 0;
+    // Images: the particle itself and its copies across periodic (and sheared) faces.
+    for (int iy = -1; iy <= 1; ++iy) {
+      if (iy != 0 && (g.dims < 2 || !f.periodic[1])) continue;
+      for (int ix = -2; ix <= 2; ++ix) {
+        if (ix != 0 && !f.periodic[0]) continue;
+        for (int iz = -1; iz <= 1; ++iz) {
+          if (iz != 0 && (g.dims < 3 || !f.periodic[2])) continue;
+          double im[3] = {x[0] + ix * f.length[0], x[1] + iy * f.length[1], x[2] + iz * f.length[2]};
+          if (f.sheared) im[0] += iy * f.le_offset;
+          int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+          bool outside = false;
+          for (int d = 0; d < g.dims; ++d) {
+            lo[d] = std::max(0, int(std::floor((im[d] - c - g.lo[d]) / g.h(d) - 0.5)));
+            hi[d] = std::min(g.n[d] - 1, int(std::ceil((im[d] + c - g.lo[d]) / g.h(d) - 0.5)));
+            if (lo[d] > hi[d]) outside = true;
+          }
+          if (outside) continue;
+          for (int kz = lo[2]; kz <= hi[2]; ++kz)
+            for (int ky = lo[1]; ky <= hi[1]; ++ky)
+              for (int kx = lo[0]; kx <= hi[0]; ++kx) {
+                const int kk[3] = {kx, ky, kz};
+                double r2 = 0;
+                for (int d = 0; d < g.dims; ++d) {
+                  const double dd = g.centre(d, kk[d]) - im[d];
+                  r2 += dd * dd;
+                }
+                const double w = k(r2);
+                if (w <= 0) continue;
+                hits.push_back({(std::size_t(kz) * g.n[1] + ky) * g.n[0] + kx, w});
+                total += w;
+              }
+        }
+      }
+    }
+    if (total <= 0) continue;  // outside the grid entirely
+    const double m = f.m[p], scale = m / (total * dv);
+    const double u = v[0] - bg.shear * x[1];  // fluctuation about the background flow
+    const double b[3] = {u, v[1], v[2]};
+    for (const Hit& h : hits) {
+      const double s = scale * h.w;
+      out.density[h.point] += s;
+      for (int d = 0; d < 3; ++d) out.momentum[3 * h.point + d] += s * v[d];
+      const int a[6] = {0, 1, 2, 0, 0, 1}, bb[6] = {0, 1, 2, 1, 2, 2};
+      for (int q = 0; q < 6; ++q) {
+        out.kinetic[6 * h.point + q] += s * v[a[q]] * v[bb[q]];
+        out.background[6 * h.point + q] += s * b[a[q]] * b[bb[q]];
+      }
+    }
+  }
+}
+
+void finish(Fields& f, std::size_t points) {
+  const int a[6] = {0, 1, 2, 0, 0, 1}, b[6] = {0, 1, 2, 1, 2, 2};
+  for (std::size_t i = 0; i < points; ++i) {
+    const double rho = f.density[i];
+    if (rho <= 0) continue;
+    for (int q = 0; q < 6; ++q)
+      f.kinetic[6 * i + q] -= f.momentum[3 * i + a[q]] * f.momentum[3 * i + b[q]] / rho;
+  }
+}
+
+}  // namespace cassini::cg

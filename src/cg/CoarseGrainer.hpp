@@ -1,0 +1,63 @@
+#pragma once
+// Coarse-grained continuum fields on a regular grid from particle data (thesis ch. 3):
+//   density   rho = sum m psi
+//   momentum  p = sum m v psi,  velocity V = p / rho
+//   kinetic stress (fluctuations about the local mean)  sum m v v psi - rho V V
+//   fluctuations about a given background flow U(x)    sum m (v - U)(v - U) psi
+// Each particle's kernel weights on the grid (with its periodic and Lees-Edwards images) are
+// normalised to sum to 1 / cell volume, so the grid integral of rho is exactly the mass even
+// across periodic and sheared boundaries (the discrete form of int psi = 1).
+#include <array>
+#include <string>
+#include <vector>
+
+#include "cg/Kernel.hpp"
+
+namespace cassini::cg {
+
+struct Frame {
+  std::vector<double> x, v, m;      // x, v: 3 per particle
+  std::array<double, 3> lo{}, length{};
+  std::array<bool, 3> periodic{};
+  double le_offset = 0;             // Lees-Edwards: image across y shifted by this in x
+  double le_rate = 0;               // ... and moving faster by le_rate * Ly
+  bool sheared = false;
+};
+
+struct Grid {
+  int dims = 3;                  // 2: fields on x-y (surface densities), 1: along x
+  std::array<int, 3> n{1, 1, 1};
+  std::array<double, 3> lo{}, hi{};
+  double h(int d) const { return (hi[d] - lo[d]) / n[d]; }
+  double cell_volume() const {
+    double v = 1;
+    for (int d = 0; d < dims; ++d) v *= h(d);
+    return v;
+  }
+  std::size_t size() const { return std::size_t(n[0]) * n[1] * n[2]; }
+  double centre(int d, int k) const { return lo[d] + (k + 0.5) * h(d); }
+};
+
+struct Fields {
+  std::vector<double> density, momentum, kinetic, background;  // 1, 3, 6 (xx yy zz xy xz yz), 6 per point
+  void resize(std::size_t n) {
+    density.assign(n, 0);
+    momentum.assign(3 * n, 0);
+    kinetic.assign(6 * n, 0);
+    background.assign(6 * n, 0);
+  }
+  void add(const Fields& o, double weight);
+};
+
+// Background flow: v_x = shear * y (e.g. 1.5 Omega0 in the ring); zero for none.
+struct Background {
+  double shear = 0;
+};
+
+// Accumulates the particles [begin, end) of a frame (raw sums, before dividing by rho).
+void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k,
+                const Background& bg, Fields& out);
+// Turns raw sums into fields: kinetic = sum m v v psi - rho V V; background stays as summed.
+void finish(Fields& f, std::size_t points);
+
+}  // namespace cassini::cg

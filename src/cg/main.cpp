@@ -1,0 +1,261 @@
+// cassini-cg: coarse-grained fields from cassini snapshots, in the spirit of MercuryCG.
+//   mpirun -n 2 cassini-cg run/snap_*.h5md --grid 200x50 --width 100 --kernel gauss --out fields.h5
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <hdf5.h>
+#include <mpi.h>
+
+#include "cg/CoarseGrainer.hpp"
+
+using namespace cassini::cg;
+namespace fs = std::filesystem;
+
+namespace {
+
+[[noreturn]] void fail(const std::string& msg) { throw std::runtime_error(msg); }
+
+hid_t must(hid_t h, const std::string& what) {
+  if (h < 0) fail(what);
+  return h;
+}
+
+// Reads rows [lo, lo + n) of a [1][N][w] dataset (all of a small dataset when n == 0 and w == 0).
+void read(hid_t file, const std::string& path, hsize_t lo, hsize_t n, hsize_t w, double* out, bool frame = true) {
+  hid_t d = must(H5Dopen2(file, path.c_str(), H5P_DEFAULT), "missing dataset " + path);
+  hid_t fs_ = H5Dget_space(d);
+  std::vector<hsize_t> start, count;
+  if (frame) { start.push_back(0); count.push_back(1); }
+  start.push_back(lo); count.push_back(n);
+  if (w > 1) { start.push_back(0); count.push_back(w); }
+  hid_t mem = H5Screate_simple(int(count.size()), count.data(), nullptr);
+  if (n == 0) { H5Sselect_none(fs_); H5Sselect_none(mem); }
+  else H5Sselect_hyperslab(fs_, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
+  static double dummy[3];
+  const herr_t r = H5Dread(d, H5T_NATIVE_DOUBLE, mem, fs_, H5P_DEFAULT, n ? out : dummy);
+  H5Sclose(mem); H5Sclose(fs_); H5Dclose(d);
+  if (r < 0) fail("cannot read " + path);
+}
+
+hsize_t rows_of(hid_t file, const std::string& path) {
+  hid_t d = must(H5Dopen2(file, path.c_str(), H5P_DEFAULT), "missing dataset " + path);
+  hid_t s = H5Dget_space(d);
+  hsize_t dims[3] = {0, 0, 0};
+  H5Sget_simple_extent_dims(s, dims, nullptr);
+  H5Sclose(s); H5Dclose(d);
+  return dims[1];
+}
+
+struct Loaded {
+  Frame frame;
+  double shear_rate = 0, time = 0;
+  bool planar = false;
+};
+
+// Each rank reads its block of rows of the snapshot.
+Loaded load(const std::string& path, int rank, int size) {
+  if (!fs::exists(path)) fail(path + ": no such snapshot");
+  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
+  H5Pclose(fapl);
+  if (file < 0) fail(path + ": not a readable HDF5 file (truncated or still being written?)");
+  if (H5Aexists_by_name(file, "parameters", "complete", H5P_DEFAULT) <= 0) {
+    H5Fclose(file);
+    fail(path + ": snapshot is incomplete (no parameters@complete)");
+  }
+  Loaded L;
+  const std::string g = "particles/grains/";
+  const hsize_t N = rows_of(file, g + "position/value");
+  const hsize_t lo = N * rank / size, n = N * (rank + 1) / size - lo;
+  Frame& f = L.frame;
+  f.x.resize(3 * n);
+  f.v.resize(3 * n);
+  f.m.resize(n);
+  read(file, g + "position/value", lo, n, 3, f.x.data());
+  read(file, g + "velocity/value", lo, n, 3, f.v.data());
+  read(file, g + "mass/value", lo, n, 1, f.m.data());
+  double edges[9], origin[3], state[3], rate = 0, planar = 0;
+  read(file, g + "box/edges/value", 0, 3, 3, edges);
+  read(file, g + "box/origin", 0, 3, 1, origin, false);
+  read(file, "parameters/time_offset_dt", 0, 3, 1, state, false);
+  read(file, "parameters/shear_rate", 0, 1, 1, &rate, false);
+  {
+    hid_t d = must(H5Dopen2(file, "parameters/planar", H5P_DEFAULT), "parameters/planar");
+    int p = 0;
+    H5Dread(d, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, &p);
+    H5Dclose(d);
+    planar = p;
+  }
+  hid_t box = H5Gopen2(file, (g + "box").c_str(), H5P_DEFAULT);
+  hid_t a = H5Aopen(box, "boundary", H5P_DEFAULT);
+  hid_t t = H5Aget_type(a);
+  std::string bounds(H5Tget_size(t), '\0');
+  H5Aread(a, t, bounds.data());
+  H5Tclose(t); H5Aclose(a); H5Gclose(box);
+  H5Fclose(file);
+  std::istringstream bs(bounds);
+  std::string item;
+  for (int d = 0; d < 3 && std::getline(bs, item, ','); ++d) f.periodic[d] = item.rfind("periodic", 0) == 0;
+  for (int d = 0; d < 3; ++d) {
+    f.lo[d] = origin[d];
+    f.length[d] = edges[4 * d];
+  }
+  f.sheared = rate != 0;
+  f.le_offset = edges[3];  // xy tilt = wrapped offset
+  f.le_rate = rate;
+  L.shear_rate = rate;
+  L.time = state[0];
+  L.planar = planar != 0;
+  return L;
+}
+
+void write_dataset(hid_t file, const std::string& name, const std::vector<hsize_t>& dims, const double* data) {
+  hid_t s = H5Screate_simple(int(dims.size()), dims.data(), nullptr);
+  hid_t d = H5Dcreate2(file, name.c_str(), H5T_NATIVE_DOUBLE, s, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+  H5Dclose(d);
+  H5Sclose(s);
+}
+
+void write_attr(hid_t obj, const std::string& name, const std::string& value) {
+  hid_t t = H5Tcopy(H5T_C_S1);
+  H5Tset_size(t, value.size() + 1);
+  hid_t s = H5Screate(H5S_SCALAR);
+  hid_t a = H5Acreate2(obj, name.c_str(), t, s, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(a, t, value.c_str());
+  H5Aclose(a); H5Sclose(s); H5Tclose(t);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  CLI::App app{"cassini-cg: coarse-grained fields (density, momentum, velocity, kinetic stress, velocity\n"
+               "fluctuations) on a regular grid from cassini H5MD snapshots, averaged over the given frames."};
+  std::vector<std::string> files;
+  std::string grid_spec, kernel = "gauss", background = "auto", out = "fields.h5";
+  double width = 0;
+  bool force = false;
+  app.add_option("snapshots", files, "snapshot files (snap_<step>.h5md); fields are averaged over all of them")->required();
+  app.add_option("--grid", grid_spec, "grid points per axis: NX (1D along x), NXxNY (2D, x-y; the default for planar\n"
+                                      "scenes, giving surface densities) or NXxNYxNZ (3D). Default 100x100 or 50x50x50");
+  app.add_option("--width", width, "kernel width w in metres (default: the mean particle diameter)");
+  app.add_option("--kernel", kernel, "gauss (cut off at 3w), lucy (c = 2w) or heaviside (c = w); default gauss");
+  app.add_option("--background", background, "flow the 'background' fluctuations are measured against: shear (v_x =\n"
+                                              "rate y, the snapshot's Lees-Edwards rate), shear:RATE, none, or auto (shear\n"
+                                              "when the run was sheared)");
+  app.add_option("--out", out, "output HDF5 file (default fields.h5)");
+  app.add_flag("--force", force, "overwrite an existing output file");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = rank == 0 ? app.exit(e) : 1;
+    MPI_Finalize();
+    return code;
+  }
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  int code = 0;
+  try {
+    if (rank == 0 && fs::exists(out) && !force) fail(out + " exists: pass --force to overwrite");
+    Fields sum;
+    Grid g;
+    std::string dims_note;
+    for (std::size_t k = 0; k < files.size(); ++k) {
+      Loaded L = load(files[k], rank, size);
+      if (k == 0) {
+        std::vector<int> n;
+        if (!grid_spec.empty()) {
+          std::stringstream ss(grid_spec);
+          std::string part;
+          while (std::getline(ss, part, 'x')) n.push_back(std::stoi(part));
+          if (n.empty() || n.size() > 3) fail("--grid: expected NX, NXxNY or NXxNYxNZ, got '" + grid_spec + "'");
+        } else {
+          n = L.planar ? std::vector<int>{100, 100} : std::vector<int>{50, 50, 50};
+        }
+        g.dims = int(n.size());
+        for (int d = 0; d < 3; ++d) {
+          g.n[d] = d < g.dims ? n[d] : 1;
+          g.lo[d] = L.frame.lo[d];
+          g.hi[d] = L.frame.lo[d] + L.frame.length[d];
+        }
+        if (width <= 0) {  // mean diameter of the first frame, across ranks
+          double local[2] = {0, double(L.frame.m.size())}, global[2];
+          // radius is not read; estimate from spacing-free default: use 1/20 of the shortest grid extent
+          local[0] = 0;
+          MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+          width = 1e300;
+          for (int d = 0; d < g.dims; ++d) width = std::min(width, 2 * g.h(d));
+        }
+        sum.resize(g.size());
+      }
+      Background bg;
+      if (background == "auto") bg.shear = L.shear_rate;
+      else if (background == "shear") bg.shear = L.shear_rate;
+      else if (background.rfind("shear:", 0) == 0) bg.shear = std::stod(background.substr(6));
+      else if (background != "none") fail("--background: expected shear, shear:RATE, none or auto");
+      Kernel kern(kernel, width, g.dims);
+      Fields f;
+      f.resize(g.size());
+      accumulate(L.frame, 0, L.frame.m.size(), g, kern, bg, f);
+      sum.add(f, 1.0 / files.size());
+    }
+    // Sum the ranks' partial grids on rank 0.
+    for (auto* v : {&sum.density, &sum.momentum, &sum.kinetic, &sum.background})
+      MPI_Reduce(rank == 0 ? MPI_IN_PLACE : v->data(), v->data(), int(v->size()), MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+    if (rank == 0) {
+      finish(sum, g.size());
+      const std::size_t P = g.size();
+      std::vector<double> velocity(3 * P, 0), fluct(P, 0), bfluct(P, 0), stress(6 * P);
+      for (std::size_t i = 0; i < P; ++i) {
+        const double rho = sum.density[i];
+        if (rho > 0) {
+          for (int d = 0; d < 3; ++d) velocity[3 * i + d] = sum.momentum[3 * i + d] / rho;
+          fluct[i] = std::sqrt(std::max(0.0, (sum.kinetic[6 * i] + sum.kinetic[6 * i + 1] + sum.kinetic[6 * i + 2]) / rho));
+          bfluct[i] = std::sqrt(std::max(0.0, (sum.background[6 * i] + sum.background[6 * i + 1] + sum.background[6 * i + 2]) / rho));
+        }
+        for (int q = 0; q < 6; ++q) stress[6 * i + q] = -sum.kinetic[6 * i + q];
+      }
+      std::vector<hsize_t> shape;
+      for (int d = g.dims - 1; d >= 0; --d) shape.push_back(hsize_t(g.n[d]));  // C order: [z][y][x]
+      auto with = [&](hsize_t c) { auto s = shape; if (c > 1) s.push_back(c); return s; };
+      const std::string tmp = out + ".partial";
+      hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+      if (file < 0) fail("cannot create " + out);
+      for (int d = 0; d < g.dims; ++d) {
+        std::vector<double> c(g.n[d]);
+        for (int k = 0; k < g.n[d]; ++k) c[k] = g.centre(d, k);
+        write_dataset(file, std::string("grid_") + "xyz"[d], {hsize_t(g.n[d])}, c.data());
+      }
+      write_dataset(file, "density", with(1), sum.density.data());
+      write_dataset(file, "momentum", with(3), sum.momentum.data());
+      write_dataset(file, "velocity", with(3), velocity.data());
+      write_dataset(file, "kinetic_stress", with(6), stress.data());
+      write_dataset(file, "velocity_fluctuation", with(1), fluct.data());
+      write_dataset(file, "background_fluctuation", with(1), bfluct.data());
+      hid_t root = H5Gopen2(file, "/", H5P_DEFAULT);
+      std::ostringstream desc;
+      desc << "kernel " << kernel << ", width " << width << " m, " << files.size() << " frame(s), " << g.dims
+           << "D grid; density is mass per " << (g.dims == 3 ? "volume" : g.dims == 2 ? "area (surface density)" : "length")
+           << "; kinetic_stress = -sum m v'v' psi (xx yy zz xy xz yz); fluctuations are rms speeds about the local mean "
+              "velocity and about the background flow";
+      write_attr(root, "description", desc.str());
+      write_attr(root, "kernel", kernel);
+      write_attr(root, "width", std::to_string(width));
+      H5Gclose(root);
+      H5Fclose(file);
+      fs::rename(tmp, out);
+      std::cout << "cassini-cg: " << files.size() << " frame(s) -> " << out << " (" << desc.str() << ")\n";
+    }
+  } catch (const std::exception& e) {
+    if (rank == 0) std::cerr << "cassini-cg: error: " << e.what() << std::endl;
+    code = 2;
+  }
+  MPI_Finalize();
+  return code;
+}

@@ -1,0 +1,146 @@
+// Coarse-graining (thesis ch. 3) against exact integrals and a lattice.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "cg/CoarseGrainer.hpp"
+
+using namespace cassini::cg;
+
+TEST(CoarseGraining, KernelsIntegrateToOne) {
+  // Radial quadrature of psi over its support in 1, 2 and 3 dimensions (Simpson, 20,000 panels).
+  for (const char* kind : {"gauss", "lucy", "heaviside"})
+    for (int dims = 1; dims <= 3; ++dims) {
+      Kernel k(kind, 0.7, dims);
+      const double c = k.cutoff();
+      const int n = 20000;
+      const double h = c / n;
+      auto shell = [&](double r) {  // surface of the unit sphere in d dims times r^(d-1)
+        const double s = dims == 1 ? 2.0 : dims == 2 ? 2 * std::numbers::pi * r : 4 * std::numbers::pi * r * r;
+        return s * k(r * r * (1 - 1e-15));
+      };
+      double sum = shell(0) + shell(c * (1 - 1e-12));
+      for (int i = 1; i < n; ++i) sum += (i % 2 ? 4 : 2) * shell(i * h);
+      const double integral = sum * h / 3;
+      // heaviside jumps at c: Simpson's rule is then only first order; 1e-3 is its resolution here
+      EXPECT_NEAR(integral, 1.0, std::string(kind) == "heaviside" ? 1e-3 : 1e-9) << kind << " in " << dims << "D";
+    }
+}
+
+namespace {
+
+Frame random_frame(int n, bool sheared) {
+  Frame f;
+  f.lo = {0, 0, 0};
+  f.length = {10, 6, 4};
+  f.periodic = {true, true, true};
+  f.sheared = sheared;
+  f.le_offset = sheared ? 3.7 : 0;
+  std::uint64_t s = 42;
+  auto u = [&] { s = s * 6364136223846793005ull + 1442695040888963407ull; return (s >> 11) * 0x1.0p-53; };
+  for (int i = 0; i < n; ++i) {
+    // half of them within a kernel width of some face
+    const bool edge = i % 2;
+    for (int d = 0; d < 3; ++d) f.x.push_back(edge && d == i % 3 ? (u() < 0.5 ? 0.2 * u() : f.length[d] - 0.2 * u()) : u() * f.length[d]);
+    for (int d = 0; d < 3; ++d) f.v.push_back(u() - 0.5);
+    f.m.push_back(0.5 + u());
+  }
+  return f;
+}
+
+}  // namespace
+
+TEST(CoarseGraining, DensityIntegratesToTheMassAcrossPeriodicAndShearedBoundaries) {
+  for (bool sheared : {false, true})
+    for (int dims : {2, 3})
+      for (const char* kind : {"gauss", "lucy", "heaviside"}) {
+        const Frame f = random_frame(400, sheared);
+        Grid g;
+        g.dims = dims;
+        g.n = {40, 24, dims == 3 ? 16 : 1};
+        g.lo = {0, 0, 0};
+        g.hi = {10, 6, 4};
+        Fields out;
+        out.resize(g.size());
+        accumulate(f, 0, f.m.size(), g, Kernel(kind, 0.6, dims), Background{}, out);
+        double mass = 0, integral = 0;
+        for (double m : f.m) mass += m;
+        for (double r : out.density) integral += r * g.cell_volume();
+        EXPECT_NEAR(integral / mass, 1.0, 1e-10) << kind << (sheared ? " sheared" : "") << " " << dims << "D";
+      }
+}
+
+TEST(CoarseGraining, LatticeGivesSolidDensityTimesVolumeFraction) {
+  // Simple cubic lattice (spacing s) of spheres of radius a, density rho_p in a periodic box:
+  // rho = rho_p phi with phi = (4/3 pi a^3) / s^3. A Gaussian of width w = s damps the
+  // lattice's first Fourier mode by exp(-2 pi^2 w^2 / s^2) ~ 3e-9.
+  const double s = 1.0, a = 0.4, rho_p = 2500;
+  const double m = rho_p * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  Frame f;
+  f.lo = {0, 0, 0};
+  f.length = {8, 8, 8};
+  f.periodic = {true, true, true};
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j)
+      for (int k = 0; k < 8; ++k) {
+        f.x.insert(f.x.end(), {(i + 0.5) * s, (j + 0.5) * s, (k + 0.5) * s});
+        f.v.insert(f.v.end(), {0, 0, 0});
+        f.m.push_back(m);
+      }
+  Grid g;
+  g.dims = 3;
+  g.n = {16, 16, 16};
+  g.hi = {8, 8, 8};
+  Fields out;
+  out.resize(g.size());
+  accumulate(f, 0, f.m.size(), g, Kernel("gauss", 1.0, 3), Background{}, out);
+  const double phi = 4.0 / 3.0 * std::numbers::pi * a * a * a / (s * s * s);
+  for (std::size_t p = 0; p < g.size(); ++p) EXPECT_NEAR(out.density[p] / (rho_p * phi), 1.0, 1e-6) << p;
+}
+
+TEST(CoarseGraining, SplittingParticlesAcrossRanksGivesTheSameFields) {
+  // The MPI post-processor sums the partial grids of particle blocks: same fields to round-off.
+  const Frame f = random_frame(300, true);
+  Grid g;
+  g.dims = 2;
+  g.n = {50, 30, 1};
+  g.hi = {10, 6, 4};
+  Kernel k("lucy", 0.5, 2);
+  Fields whole, a, b;
+  whole.resize(g.size());
+  a.resize(g.size());
+  b.resize(g.size());
+  accumulate(f, 0, 300, g, k, Background{0.3}, whole);
+  accumulate(f, 0, 137, g, k, Background{0.3}, a);
+  accumulate(f, 137, 300, g, k, Background{0.3}, b);
+  a.add(b, 1.0);
+  for (std::size_t p = 0; p < g.size(); ++p) {
+    EXPECT_NEAR(a.density[p], whole.density[p], 1e-12 * (1 + whole.density[p]));
+    EXPECT_NEAR(a.background[6 * p], whole.background[6 * p], 1e-12 * (1 + whole.background[6 * p]));
+  }
+}
+
+TEST(CoarseGraining, FluctuationsAboutTheShearFlowVanishForParticlesOnIt) {
+  // Particles moving exactly with v_x = gamma y: zero background fluctuation, while the
+  // fluctuation about the local mean is the velocity spread across the kernel.
+  Frame f;
+  f.lo = {0, 0, 0};
+  f.length = {10, 6, 4};
+  f.periodic = {true, false, false};
+  const double rate = 0.25;
+  for (int i = 0; i < 200; ++i) {
+    const double y = 0.5 + 5.0 * i / 200;
+    f.x.insert(f.x.end(), {0.05 * i, y, 2.0});
+    f.v.insert(f.v.end(), {rate * y, 0, 0});
+    f.m.push_back(1.0);
+  }
+  Grid g;
+  g.dims = 2;
+  g.n = {20, 12, 1};
+  g.hi = {10, 6, 4};
+  Fields out;
+  out.resize(g.size());
+  accumulate(f, 0, 200, g, Kernel("gauss", 0.5, 2), Background{rate}, out);
+  for (std::size_t p = 0; p < g.size(); ++p) EXPECT_NEAR(out.background[6 * p], 0.0, 1e-24);
+}
