@@ -206,6 +206,7 @@ Config read_config(CaseFile& f) {
   // ---- output
   c.dump_every = non_negative(f, "output.dump_every", 0.0);
   c.snapshot_every = non_negative(f, "output.snapshot_every", 0.0);
+  c.snapshot_from = non_negative(f, "output.snapshot_from", 0.0);
   c.observe_every = non_negative(f, "output.observe_every", c.t_end / 100);
   c.progress_every = positive(f, "output.progress_every", 2.0);
 

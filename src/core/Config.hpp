@@ -72,6 +72,7 @@ struct Config {
 
   double dump_every = 0;      // simulated time between text dumps (0: none)
   double snapshot_every = 0;  // simulated time between H5MD snapshots (0: none)
+  double snapshot_from = 0;   // no snapshots before this simulated time
   double observe_every = 0;   // simulated time between observables rows (0: 100 rows per run)
   double progress_every = 2;  // wall seconds between progress lines
 

@@ -153,7 +153,7 @@ void Simulation::run(RunOutput* out) {
   if (out) {
     out->observe(*this);
     if (dump_every) out->dump(*this, "step");
-    if (snap_every && !restored) out->snapshot(*this);
+    if (snap_every && !restored && time >= cfg.snapshot_from) out->snapshot(*this);
   }
   while (step_count < nsteps) {
     try {
@@ -164,7 +164,7 @@ void Simulation::run(RunOutput* out) {
     }
     if (out && step_count % observe_every == 0) out->observe(*this);
     if (out && dump_every && step_count % dump_every == 0) out->dump(*this, "step");
-    if (out && snap_every && step_count % snap_every == 0) out->snapshot(*this);
+    if (out && snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt) out->snapshot(*this);
     if (out && (step_count & 63) == 0) {
       const auto now = clock::now();
       const double since = std::chrono::duration<double>(now - last_print).count();
