@@ -1,5 +1,6 @@
 #pragma once
 // Small helpers to build a scene from an inline case text in tests.
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,6 +19,46 @@ inline Config config_from(const std::string& text, const std::vector<std::string
 inline std::unique_ptr<Simulation> make_sim(const std::string& text, const std::vector<std::string>& overrides = {},
                                             MPI_Comm comm = MPI_COMM_WORLD) {
   return std::make_unique<Simulation>(config_from(text, overrides), comm);
+}
+
+// Every owned particle's state (x, v, omega; with `full` also f, torque, wall springs), keyed
+// by id, gathered on rank 0 of the simulation's communicator (empty on other ranks).
+using StateById = std::map<std::int64_t, std::vector<double>>;
+inline StateById gather_state(const Simulation& sim, bool full = false) {
+  const auto& p = sim.particles;
+  const int walls = full && p.rotation ? p.walls : 0;
+  const int width = 1 + 9 + (full ? 6 + 3 * walls : 0);
+  std::vector<double> mine;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    mine.push_back(double(p.id[i]));
+    const Vec3 w = p.rotation ? p.omega[i] : Vec3::Zero(), t = p.rotation ? p.torque[i] : Vec3::Zero();
+    for (const Vec3* q : {&p.x[i], &p.v[i], &w}) mine.insert(mine.end(), q->data(), q->data() + 3);
+    if (!full) continue;
+    for (const Vec3* q : {&p.f[i], &t}) mine.insert(mine.end(), q->data(), q->data() + 3);
+    for (int k = 0; k < walls; ++k) mine.insert(mine.end(), p.wall_xi[i * walls + k].data(), p.wall_xi[i * walls + k].data() + 3);
+  }
+  int n = static_cast<int>(mine.size()), size = 0, rank = 0;
+  MPI_Comm_size(sim.domain.comm, &size);
+  MPI_Comm_rank(sim.domain.comm, &rank);
+  std::vector<int> counts(size), displ(size);
+  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, sim.domain.comm);
+  int total = 0;
+  for (int r = 0; r < size; ++r) { displ[r] = total; total += counts[r]; }
+  std::vector<double> all(rank == 0 ? total : 0);
+  MPI_Gatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displ.data(), MPI_DOUBLE, 0, sim.domain.comm);
+  StateById out;
+  for (std::size_t k = 0; k + width <= all.size(); k += width)
+    out[std::int64_t(all[k])] = std::vector<double>(all.begin() + k + 1, all.begin() + k + width);
+  return out;
+}
+
+// Number of particles whose state differs bitwise (-1 when the particle sets differ).
+inline long differing(const StateById& a, const StateById& b) {
+  if (a.size() != b.size()) return -1;
+  long d = 0;
+  for (const auto& [id, s] : a)
+    if (!b.count(id) || b.at(id) != s) ++d;
+  return d;
 }
 
 // Finds an owned particle by id on this rank (nullptr-like -1 when not here).

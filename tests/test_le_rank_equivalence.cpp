@@ -14,36 +14,12 @@ using namespace cassini::test;
 
 namespace {
 
-using Snapshot = std::map<std::int64_t, std::array<double, 9>>;
-
-Snapshot run(const std::string& text, const std::vector<std::string>& over, MPI_Comm comm, int steps, double* offset) {
+StateById run(const std::string& text, const std::vector<std::string>& over, MPI_Comm comm, int steps, double* offset) {
   auto sim = make_sim(text, over, comm);
   sim->setup();
   for (int s = 0; s < steps; ++s) sim->step();
   *offset = sim->domain.shear.offset;
-  const auto& p = sim->particles;
-  std::vector<double> mine;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    mine.push_back(double(p.id[i]));
-    const Vec3 w = p.rotation ? p.omega[i] : Vec3::Zero();
-    for (const Vec3* q : {&p.x[i], &p.v[i], &w}) mine.insert(mine.end(), q->data(), q->data() + 3);
-  }
-  int n = static_cast<int>(mine.size()), size = 0, rank = 0;
-  MPI_Comm_size(comm, &size);
-  MPI_Comm_rank(comm, &rank);
-  std::vector<int> counts(size), displ(size);
-  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
-  int total = 0;
-  for (int r = 0; r < size; ++r) { displ[r] = total; total += counts[r]; }
-  std::vector<double> all(rank == 0 ? total : 0);
-  MPI_Gatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displ.data(), MPI_DOUBLE, 0, comm);
-  Snapshot out;
-  for (std::size_t k = 0; k + 10 <= all.size(); k += 10) {
-    std::array<double, 9> s;
-    std::copy(all.begin() + k + 1, all.begin() + k + 10, s.begin());
-    out[std::int64_t(all[k])] = s;
-  }
-  return out;
+  return gather_state(*sim);
 }
 
 void compare_rank_counts(const std::string& text, const std::vector<std::string>& over, int steps, double sweep) {
@@ -51,13 +27,13 @@ void compare_rank_counts(const std::string& text, const std::vector<std::string>
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   ASSERT_EQ(size, 4) << "run this test with 4 ranks";
-  Snapshot reference;
+  StateById reference;
   for (int k = 1; k <= 4; ++k) {
     MPI_Comm sub;
     MPI_Comm_split(MPI_COMM_WORLD, rank < k ? 0 : MPI_UNDEFINED, rank, &sub);
     if (sub == MPI_COMM_NULL) continue;
     double offset = 0;
-    const Snapshot s = run(text, over, sub, steps, &offset);
+    const StateById s = run(text, over, sub, steps, &offset);
     MPI_Comm_free(&sub);
     if (rank != 0) continue;
     EXPECT_GT(offset, sweep) << "the offset must sweep the box";
@@ -67,11 +43,7 @@ void compare_rank_counts(const std::string& text, const std::vector<std::string>
       EXPECT_GT(s.size(), 50u);
       continue;
     }
-    EXPECT_EQ(s.size(), reference.size()) << k << " ranks";
-    long differ = 0;
-    for (const auto& [id, state] : reference)
-      if (!s.count(id) || s.at(id) != state) ++differ;
-    EXPECT_EQ(differ, 0) << "particles differing bitwise between 1 and " << k << " ranks";
+    EXPECT_EQ(differing(reference, s), 0) << "particles differing bitwise between 1 and " << k << " ranks";
   }
 }
 
