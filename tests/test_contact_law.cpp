@@ -33,12 +33,12 @@ struct Collision {
 };
 
 // Two equal spheres approach head-on at speed v each; returns e and contact duration.
-Collision head_on(double e, double n_c, bool clip = false) {
+Collision head_on(double e, double n_c, bool clip = false, double phase = 0.37) {
   auto sim = make_sim(kPair, {"species.0.e=" + std::to_string(e), "time.n_c=" + std::to_string(n_c),
                               std::string("contact.clip_normal=") + (clip ? "true" : "false")});
   const double a = 0.001, v = 0.1, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
   // Start a fraction of a step from touching so the onset falls between steps.
-  const double gap = 0.37 * v * sim->dt;
+  const double gap = phase * v * sim->dt;
   sim->particles.add(0, 0, a, m, Vec3(-a - gap, 0, 0), Vec3(v, 0, 0));
   sim->particles.add(1, 0, a, m, Vec3(a + gap, 0, 0), Vec3(-v, 0, 0));
   sim->setup();
@@ -66,20 +66,25 @@ Collision head_on(double e, double n_c, bool clip = false) {
 
 TEST(ContactLaw, HeadOnCollisionReproducesRestitutionAndDuration) {
   // The dashpot sees the half-step velocity v(t+dt/2) while the spring sees x(t+dt): a lag
-  // of dt/2 that makes the restitution error first order in dt. To leading order the
-  // relative error is about ln(e)/N_c = -eta dt (the damping acts for an extra ~dt over the
-  // contact); we allow 1.25 |ln e| / N_c (+1e-6 for round-off at e -> 1), i.e. 5.8 % at
-  // e = 0.1 and 1.7 % at e = 0.5 with N_c = 50. The duration must match t_c to within one
-  // step (the separation instant is interpolated linearly within the last step).
+  // of dt/2 that makes the restitution error first order in dt, and dependent on where in a
+  // step the contact begins. Over onset phases the relative error stays below
+  // 3 |ln e| / N_c (measured worst ~2.8 |ln e| / N_c at e = 0.1): 14 % at e = 0.1 and 4 % at
+  // e = 0.5 with N_c = 50 (+1e-6 for round-off at e -> 1). The duration must match t_c to
+  // within one step (the separation instant is interpolated linearly within the last step).
   for (double nc : {50.0, 100.0}) {
     for (double e : {0.1, 0.5, 0.9, 0.99}) {
-      const double tol_e = 1.25 * std::abs(std::log(e)) / nc + 1e-6;
-      const Collision c = head_on(e, nc);
+      const double tol_e = 3.0 * std::abs(std::log(e)) / nc + 1e-6;
+      double worst = 0, worst_duration = 0;
       const double tc = 1e-4, dt = tc / nc;
-      std::printf("N_c=%3.0f e=%.2f: measured e=%.6f (rel err %.2e), t_c err = %.3f dt\n", nc, e, c.restitution,
-                  c.restitution / e - 1, (c.duration - tc) / dt);
-      EXPECT_NEAR(c.restitution / e, 1.0, tol_e) << "e = " << e << ", N_c = " << nc;
-      EXPECT_NEAR(c.duration, tc, dt) << "e = " << e << ", N_c = " << nc;
+      for (double phase : {0.05, 0.25, 0.37, 0.5, 0.65, 0.85, 0.95}) {
+        const Collision c = head_on(e, nc, false, phase);
+        worst = std::max(worst, std::abs(c.restitution / e - 1));
+        worst_duration = std::max(worst_duration, std::abs(c.duration - tc));
+      }
+      std::printf("N_c=%3.0f e=%.2f: worst relative error of e %.2e (= %.2f |ln e|/N_c), of t_c %.3f dt\n", nc, e,
+                  worst, worst * nc / std::abs(std::log(e)), worst_duration / dt);
+      EXPECT_LT(worst, tol_e) << "e = " << e << ", N_c = " << nc;
+      EXPECT_LT(worst_duration, dt) << "e = " << e << ", N_c = " << nc;
     }
   }
 }
