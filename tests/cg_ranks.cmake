@@ -17,7 +17,7 @@ endif()
 execute_process(COMMAND ${PYTHON} -c "
 import h5py, numpy as np, sys
 a, b, s = h5py.File(sys.argv[1]), h5py.File(sys.argv[2]), h5py.File(sys.argv[3])
-for k in ('density', 'momentum', 'kinetic_stress', 'background_fluctuation'):
+for k in ('density', 'momentum', 'kinetic_stress', 'contact_stress', 'background_fluctuation'):
     x, y = a[k][:], b[k][:]
     assert np.allclose(x, y, rtol=1e-12, atol=1e-12 * abs(x).max()), k
 mass = s['particles/grains/mass/value'][0].sum()

@@ -144,3 +144,58 @@ TEST(CoarseGraining, FluctuationsAboutTheShearFlowVanishForParticlesOnIt) {
   accumulate(f, 0, 200, g, Kernel("gauss", 0.5, 2), Background{rate}, out);
   for (std::size_t p = 0; p < g.size(); ++p) EXPECT_NEAR(out.background[6 * p], 0.0, 1e-24);
 }
+
+TEST(CoarseGraining, ContactStressOfAStaticPackingEqualsTheVirial) {
+  // A compressed, slightly disordered periodic packing at rest: the volume average of the CG
+  // contact stress equals (1/V) sum_pairs f l (compression positive) to round-off, including
+  // the pairs that straddle the periodic faces (their branch points to the image).
+  Frame f;
+  f.lo = {0, 0, 0};
+  f.length = {6, 6, 6};
+  f.periodic = {true, true, true};
+  std::uint64_t s = 7;
+  auto u = [&] { s = s * 6364136223846793005ull + 1442695040888963407ull; return (s >> 11) * 0x1.0p-53; };
+  const double a = 0.52, k = 1000.0;  // spacing 1 < 2a: every neighbour pair overlaps
+  std::vector<std::array<double, 3>> pos;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j)
+      for (int l = 0; l < 6; ++l) pos.push_back({i + 0.5 + 0.02 * (u() - 0.5), j + 0.5 + 0.02 * (u() - 0.5), l + 0.5 + 0.02 * (u() - 0.5)});
+  for (const auto& p : pos) {
+    f.x.insert(f.x.end(), p.begin(), p.end());
+    f.v.insert(f.v.end(), {0, 0, 0});
+    f.m.push_back(1.0);
+  }
+  double virial[9] = {0};
+  for (std::size_t i = 0; i < pos.size(); ++i)
+    for (std::size_t j = i + 1; j < pos.size(); ++j) {
+      double r[3], d2 = 0;
+      for (int c = 0; c < 3; ++c) {
+        r[c] = pos[i][c] - pos[j][c];
+        r[c] -= 6 * std::round(r[c] / 6);  // minimum image
+        d2 += r[c] * r[c];
+      }
+      const double d = std::sqrt(d2);
+      if (d >= 2 * a) continue;
+      double force[3];
+      for (int c = 0; c < 3; ++c) force[c] = k * (2 * a - d) * r[c] / d;
+      f.contact_x.insert(f.contact_x.end(), pos[i].begin(), pos[i].end());
+      f.contact_branch.insert(f.contact_branch.end(), r, r + 3);
+      f.contact_force.insert(f.contact_force.end(), force, force + 3);
+      for (int p = 0; p < 3; ++p)
+        for (int q = 0; q < 3; ++q) virial[3 * p + q] += force[p] * r[q] / 216.0;
+    }
+  ASSERT_GT(f.contact_force.size() / 3, 500u);
+  Grid g;
+  g.dims = 3;
+  g.n = {12, 12, 12};
+  g.hi = {6, 6, 6};
+  Fields out;
+  out.resize(g.size());
+  accumulate_contacts(f, 0, f.contact_force.size() / 3, g, Kernel("lucy", 0.8, 3), out);
+  for (int q = 0; q < 9; ++q) {
+    double mean = 0;
+    for (std::size_t p = 0; p < g.size(); ++p) mean += out.contact[9 * p + q] * g.cell_volume() / 216.0;
+    EXPECT_NEAR(mean, virial[q], 1e-10 * std::abs(virial[0])) << "component " << q;
+  }
+  EXPECT_GT(virial[0], 0) << "compressed packing: positive (compressive) pressure";
+}

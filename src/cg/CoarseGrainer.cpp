@@ -9,55 +9,67 @@ void Fields::add(const Fields& o, double w) {
   for (std::size_t i = 0; i < momentum.size(); ++i) momentum[i] += w * o.momentum[i];
   for (std::size_t i = 0; i < kinetic.size(); ++i) kinetic[i] += w * o.kinetic[i];
   for (std::size_t i = 0; i < background.size(); ++i) background[i] += w * o.background[i];
+  for (std::size_t i = 0; i < contact.size(); ++i) contact[i] += w * o.contact[i];
 }
+
+namespace {
+
+struct Hit {
+  std::size_t point;
+  double w;
+};
+
+// Kernel weights of the point x and of its periodic (and sheared) images on the grid.
+double gather_hits(const Frame& f, const double* x, const Grid& g, const Kernel& k, std::vector<Hit>& hits) {
+  const double c = k.cutoff();
+  double total = 0;
+  for (int iy = -1; iy <= 1; ++iy) {
+    if (iy != 0 && (g.dims < 2 || !f.periodic[1])) continue;
+    for (int ix = -2; ix <= 2; ++ix) {
+      if (ix != 0 && !f.periodic[0]) continue;
+      for (int iz = -1; iz <= 1; ++iz) {
+        if (iz != 0 && (g.dims < 3 || !f.periodic[2])) continue;
+        double im[3] = {x[0] + ix * f.length[0], x[1] + iy * f.length[1], x[2] + iz * f.length[2]};
+        if (f.sheared) im[0] += iy * f.le_offset;
+        int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+        bool outside = false;
+        for (int d = 0; d < g.dims; ++d) {
+          lo[d] = std::max(0, int(std::floor((im[d] - c - g.lo[d]) / g.h(d) - 0.5)));
+          hi[d] = std::min(g.n[d] - 1, int(std::ceil((im[d] + c - g.lo[d]) / g.h(d) - 0.5)));
+          if (lo[d] > hi[d]) outside = true;
+        }
+        if (outside) continue;
+        for (int kz = lo[2]; kz <= hi[2]; ++kz)
+          for (int ky = lo[1]; ky <= hi[1]; ++ky)
+            for (int kx = lo[0]; kx <= hi[0]; ++kx) {
+              const int kk[3] = {kx, ky, kz};
+              double r2 = 0;
+              for (int d = 0; d < g.dims; ++d) {
+                const double dd = g.centre(d, kk[d]) - im[d];
+                r2 += dd * dd;
+              }
+              const double w = k(r2);
+              if (w <= 0) continue;
+              hits.push_back({(std::size_t(kz) * g.n[1] + ky) * g.n[0] + kx, w});
+              total += w;
+            }
+      }
+    }
+  }
+  return total;
+}
+
+}  // namespace
 
 void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k,
                 const Background& bg, Fields& out) {
-  const double c = k.cutoff(), dv = g.cell_volume();
-  struct Hit {
-    std::size_t point;
-    double w;
-  };
+  const double dv = g.cell_volume();
   std::vector<Hit> hits;
   for (std::size_t p = begin; p < end; ++p) {
     const double* x = &f.x[3 * p];
     const double* v = &f.v[3 * p];
     hits.clear();
-    double total = 0;
-    // Images: the particle itself and its copies across periodic (and sheared) faces.
-    for (int iy = -1; iy <= 1; ++iy) {
-      if (iy != 0 && (g.dims < 2 || !f.periodic[1])) continue;
-      for (int ix = -2; ix <= 2; ++ix) {
-        if (ix != 0 && !f.periodic[0]) continue;
-        for (int iz = -1; iz <= 1; ++iz) {
-          if (iz != 0 && (g.dims < 3 || !f.periodic[2])) continue;
-          double im[3] = {x[0] + ix * f.length[0], x[1] + iy * f.length[1], x[2] + iz * f.length[2]};
-          if (f.sheared) im[0] += iy * f.le_offset;
-          int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-          bool outside = false;
-          for (int d = 0; d < g.dims; ++d) {
-            lo[d] = std::max(0, int(std::floor((im[d] - c - g.lo[d]) / g.h(d) - 0.5)));
-            hi[d] = std::min(g.n[d] - 1, int(std::ceil((im[d] + c - g.lo[d]) / g.h(d) - 0.5)));
-            if (lo[d] > hi[d]) outside = true;
-          }
-          if (outside) continue;
-          for (int kz = lo[2]; kz <= hi[2]; ++kz)
-            for (int ky = lo[1]; ky <= hi[1]; ++ky)
-              for (int kx = lo[0]; kx <= hi[0]; ++kx) {
-                const int kk[3] = {kx, ky, kz};
-                double r2 = 0;
-                for (int d = 0; d < g.dims; ++d) {
-                  const double dd = g.centre(d, kk[d]) - im[d];
-                  r2 += dd * dd;
-                }
-                const double w = k(r2);
-                if (w <= 0) continue;
-                hits.push_back({(std::size_t(kz) * g.n[1] + ky) * g.n[0] + kx, w});
-                total += w;
-              }
-        }
-      }
-    }
+    const double total = gather_hits(f, x, g, k, hits);
     if (total <= 0) continue;  // outside the grid entirely
     const double m = f.m[p], scale = m / (total * dv);
     const double u = v[0] - bg.shear * x[1];  // fluctuation about the background flow
@@ -72,6 +84,29 @@ void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& 
         out.background[6 * h.point + q] += s * b[a[q]] * b[bb[q]];
       }
     }
+  }
+}
+
+void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out) {
+  const double dv = g.cell_volume();
+  const int samples = 8;
+  std::vector<Hit> hits;
+  for (std::size_t c = begin; c < end; ++c) {
+    const double* xi = &f.contact_x[3 * c];
+    const double* r = &f.contact_branch[3 * c];
+    const double* fc = &f.contact_force[3 * c];
+    hits.clear();
+    double total = 0;
+    for (int s = 0; s < samples; ++s) {  // midpoints along the branch from r_i to r_j
+      const double t = (s + 0.5) / samples;
+      const double pt[3] = {xi[0] - t * r[0], xi[1] - t * r[1], xi[2] - t * r[2]};
+      total += gather_hits(f, pt, g, k, hits);
+    }
+    if (total <= 0) continue;
+    const double scale = 1 / (total * dv);
+    for (const Hit& h : hits)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) out.contact[9 * h.point + 3 * a + b] += scale * h.w * fc[a] * r[b];
   }
 }
 

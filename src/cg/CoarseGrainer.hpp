@@ -17,6 +17,8 @@ namespace cassini::cg {
 
 struct Frame {
   std::vector<double> x, v, m;      // x, v: 3 per particle
+  // Contacts, each pair once: position of i, branch r_i - r_j, force on i (3 each).
+  std::vector<double> contact_x, contact_branch, contact_force;
   std::array<double, 3> lo{}, length{};
   std::array<bool, 3> periodic{};
   double le_offset = 0;             // Lees-Edwards: image across y shifted by this in x
@@ -39,12 +41,15 @@ struct Grid {
 };
 
 struct Fields {
-  std::vector<double> density, momentum, kinetic, background;  // 1, 3, 6 (xx yy zz xy xz yz), 6 per point
+  // per point: 1, 3, 6, 6, 9 values; symmetric tensors as (xx yy zz xy xz yz), the contact
+  // stress in full (row-major ab) since f_a r_b need not be symmetric.
+  std::vector<double> density, momentum, kinetic, background, contact;
   void resize(std::size_t n) {
     density.assign(n, 0);
     momentum.assign(3 * n, 0);
     kinetic.assign(6 * n, 0);
     background.assign(6 * n, 0);
+    contact.assign(9 * n, 0);
   }
   void add(const Fields& o, double weight);
 };
@@ -57,6 +62,11 @@ struct Background {
 // Accumulates the particles [begin, end) of a frame (raw sums, before dividing by rho).
 void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k,
                 const Background& bg, Fields& out);
+// Contact stress (3.27), compression positive: sigma_ab = sum_pairs f_a r_b int_0^1 psi(r - r_i + s r_ij) ds
+// (each unordered pair once = half the sum over ordered pairs of the thesis's form). The line
+// integral uses 8 points along the branch, normalised on the grid like the particles' kernels,
+// so the grid integral of sigma is exactly sum f r (the virial).
+void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out);
 // Turns raw sums into fields: kinetic = sum m v v psi - rho V V; background stays as summed.
 void finish(Fields& f, std::size_t points);
 

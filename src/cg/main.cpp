@@ -77,6 +77,23 @@ Loaded load(const std::string& path, int rank, int size) {
   read(file, g + "position/value", lo, n, 3, f.x.data());
   read(file, g + "velocity/value", lo, n, 3, f.v.data());
   read(file, g + "mass/value", lo, n, 1, f.m.data());
+  {  // contacts (each pair once), block of rows per rank
+    hid_t d = must(H5Dopen2(file, "contacts/force", H5P_DEFAULT), "missing dataset contacts/force");
+    hid_t sp = H5Dget_space(d);
+    hsize_t dims[2] = {0, 0};
+    H5Sget_simple_extent_dims(sp, dims, nullptr);
+    H5Sclose(sp);
+    H5Dclose(d);
+    const hsize_t M = dims[0], clo = M * rank / size, cn = M * (rank + 1) / size - clo;
+    f.contact_x.resize(3 * cn);
+    f.contact_branch.resize(3 * cn);
+    f.contact_force.resize(3 * cn);
+    if (M > 0) {
+      read(file, "contacts/position_i", clo, cn, 3, f.contact_x.data(), false);
+      read(file, "contacts/branch", clo, cn, 3, f.contact_branch.data(), false);
+      read(file, "contacts/force", clo, cn, 3, f.contact_force.data(), false);
+    }
+  }
   double edges[9], origin[3], state[3], rate = 0, planar = 0;
   read(file, g + "box/edges/value", 0, 3, 3, edges);
   read(file, g + "box/origin", 0, 3, 1, origin, false);
@@ -136,7 +153,7 @@ int main(int argc, char** argv) {
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  CLI::App app{"cassini-cg: coarse-grained fields (density, momentum, velocity, kinetic stress, velocity\n"
+  CLI::App app{"cassini-cg: coarse-grained fields (density, momentum, velocity, kinetic and contact stress, velocity\n"
                "fluctuations) on a regular grid from cassini H5MD snapshots, averaged over the given frames."};
   std::vector<std::string> files;
   std::string grid_spec, kernel = "gauss", background = "auto", out = "fields.h5";
@@ -203,10 +220,11 @@ int main(int argc, char** argv) {
       Fields f;
       f.resize(g.size());
       accumulate(L.frame, 0, L.frame.m.size(), g, kern, bg, f);
+      accumulate_contacts(L.frame, 0, L.frame.contact_force.size() / 3, g, kern, f);
       sum.add(f, 1.0 / files.size());
     }
     // Sum the ranks' partial grids on rank 0.
-    for (auto* v : {&sum.density, &sum.momentum, &sum.kinetic, &sum.background})
+    for (auto* v : {&sum.density, &sum.momentum, &sum.kinetic, &sum.background, &sum.contact})
       MPI_Reduce(rank == 0 ? MPI_IN_PLACE : v->data(), v->data(), int(v->size()), MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
     if (rank == 0) {
       finish(sum, g.size());
@@ -219,7 +237,7 @@ int main(int argc, char** argv) {
           fluct[i] = std::sqrt(std::max(0.0, (sum.kinetic[6 * i] + sum.kinetic[6 * i + 1] + sum.kinetic[6 * i + 2]) / rho));
           bfluct[i] = std::sqrt(std::max(0.0, (sum.background[6 * i] + sum.background[6 * i + 1] + sum.background[6 * i + 2]) / rho));
         }
-        for (int q = 0; q < 6; ++q) stress[6 * i + q] = -sum.kinetic[6 * i + q];
+        for (int q = 0; q < 6; ++q) stress[6 * i + q] = sum.kinetic[6 * i + q];
       }
       std::vector<hsize_t> shape;
       for (int d = g.dims - 1; d >= 0; --d) shape.push_back(hsize_t(g.n[d]));  // C order: [z][y][x]
@@ -236,13 +254,14 @@ int main(int argc, char** argv) {
       write_dataset(file, "momentum", with(3), sum.momentum.data());
       write_dataset(file, "velocity", with(3), velocity.data());
       write_dataset(file, "kinetic_stress", with(6), stress.data());
+      write_dataset(file, "contact_stress", with(9), sum.contact.data());
       write_dataset(file, "velocity_fluctuation", with(1), fluct.data());
       write_dataset(file, "background_fluctuation", with(1), bfluct.data());
       hid_t root = H5Gopen2(file, "/", H5P_DEFAULT);
       std::ostringstream desc;
       desc << "kernel " << kernel << ", width " << width << " m, " << files.size() << " frame(s), " << g.dims
            << "D grid; density is mass per " << (g.dims == 3 ? "volume" : g.dims == 2 ? "area (surface density)" : "length")
-           << "; kinetic_stress = -sum m v'v' psi (xx yy zz xy xz yz); fluctuations are rms speeds about the local mean "
+           << "; stresses compression-positive: kinetic_stress = sum m v'v' psi (xx yy zz xy xz yz), contact_stress = sum_pairs f r int psi ds (3x3, row a = force component); fluctuations are rms speeds about the local mean "
               "velocity and about the background flow";
       write_attr(root, "description", desc.str());
       write_attr(root, "kernel", kernel);

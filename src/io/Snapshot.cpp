@@ -257,6 +257,28 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       rows_dataset(cg, "owner", H5T_NATIVE_INT64, mtot, moff, m, 1, owner.data(), dxpl, false);
       rows_dataset(cg, "partner", H5T_NATIVE_INT64, mtot, moff, m, 1, partner.data(), dxpl, false);
       rows_dataset(cg, "xi", H5T_NATIVE_DOUBLE, mtot, moff, m, 3, xi.data(), dxpl, false);
+      // Contact forces for stress (each pair once): ids, position of i, branch r_i - r_j, force on i.
+      std::vector<ContactForces::PairRecord> pairs;
+      if (sim.contact) sim.contact->pair_forces(sim, pairs);
+      long long q = static_cast<long long>(pairs.size()), qoff = 0, qtot = 0;
+      MPI_Exscan(&q, &qoff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      if (dom.rank == 0) qoff = 0;
+      MPI_Allreduce(&q, &qtot, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      std::vector<std::int64_t> ids(2 * q);
+      std::vector<double> pos(3 * q), branch(3 * q), force(3 * q);
+      for (long long k = 0; k < q; ++k) {
+        ids[2 * k] = pairs[k].i;
+        ids[2 * k + 1] = pairs[k].j;
+        for (int c = 0; c < 3; ++c) {
+          pos[3 * k + c] = pairs[k].xi[c];
+          branch[3 * k + c] = pairs[k].branch[c];
+          force[3 * k + c] = pairs[k].force[c];
+        }
+      }
+      rows_dataset(cg, "pair_ids", H5T_NATIVE_INT64, qtot, qoff, q, 2, ids.data(), dxpl, false);
+      rows_dataset(cg, "position_i", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, pos.data(), dxpl, false);
+      rows_dataset(cg, "branch", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, branch.data(), dxpl, false);
+      rows_dataset(cg, "force", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, force.data(), dxpl, false);
     }
     {
       Handle params = group(file, "parameters");

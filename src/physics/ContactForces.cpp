@@ -100,6 +100,28 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
       if (!xi_[k].isZero(0)) out.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});
 }
 
+void ContactForces::pair_forces(const Simulation& sim, std::vector<PairRecord>& out) const {
+  const ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  const bool fric = law_.friction();
+  out.clear();
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      if (p.id[i] >= p.id[j]) continue;
+      const Vec3 d = p.x[i] - p.x[j];
+      const double r = d.norm(), R = p.radius[i] + p.radius[j];
+      if (r >= R) continue;
+      const Vec3 n = d / r;
+      const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+      Vec3 vrel = p.v[i] - p.v[j];
+      if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);
+      Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
+      const Vec3 f = law_.force(law_.law(p.species[i], p.species[j]), m, R - r, n, vrel, fric ? &spring : nullptr, ft);
+      out.push_back({p.id[i], p.id[j], p.x[i], d, f});
+    }
+}
+
 void ContactForces::refresh_diagnostics(const Simulation& sim) {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
