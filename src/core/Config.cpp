@@ -71,6 +71,8 @@ Config read_config(CaseFile& f) {
   c.planar = f.boolean("domain.planar", false);
   c.slab_axis = axis_index(f, "domain.slab_axis", f.string("domain.slab_axis", "x"));
   if (c.planar && c.slab_axis == 2) f.fail("domain.slab_axis", "\"x\" or \"y\" in a planar scene");
+  c.balance_every = f.integer("domain.balance_every", 0);
+  if (c.balance_every < 0) f.fail("domain.balance_every", "an integer >= 0 (rebuilds between load balancing; 0 = off)");
 
   // ---- species
   const auto ns = f.array_size("species");

@@ -36,6 +36,7 @@ struct Config {
   std::array<Boundary, 3> boundary{Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
   bool planar = false;  // centres stay on z = lo_z..hi_z midplane; z is never integrated
   int slab_axis = 0;
+  long balance_every = 0;  // move the slab cuts to balance cost every this many rebuilds (0: never)
   double shear_rate = 0;  // Lees-Edwards gamma_dot (1/s); v_x = shear_rate * y is the imposed flow
 
   // Hill frame (module "hill"): Saturn at (0, -r0), frame rotating at Omega0

@@ -71,6 +71,16 @@ void Simulation::check_initial_overlaps() {
 
 void Simulation::rebuild() {
   for (Module* m : stage_[4]) m->pre_rebuild(*this);
+  if (cfg.balance_every > 0 && domain.nranks > 1 && rebuilds % cfg.balance_every == 0) {
+    // Cost of a particle: 1 + its neighbour-list entries (integration plus pair work).
+    std::vector<double> coord(particles.nlocal), cost(particles.nlocal, 1.0);
+    const bool listed = neighbors.start.size() == particles.nlocal + 1;
+    for (std::size_t i = 0; i < particles.nlocal; ++i) {
+      coord[i] = particles.x[i][domain.axis];
+      if (listed) cost[i] += neighbors.start[i + 1] - neighbors.start[i];
+    }
+    imbalance = domain.balance(coord, cost);
+  }
   halo.migrate(particles, history);
   particles.permute_local(NeighborList::spatial_order(particles, domain, range));
   halo.build_ghosts(particles);

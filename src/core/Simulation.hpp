@@ -68,6 +68,7 @@ class Simulation {
   long step_count = 0;
   double range = 0, skin = 0;
   long rebuilds = 0;
+  double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
 
   std::vector<std::unique_ptr<Module>> modules;
   ContactForces* contact = nullptr;  // convenience views into `modules` (may be null)

@@ -127,7 +127,9 @@ void RunOutput::summary(Simulation& sim, double wall, long steps) {
      << "  \"particle_steps_per_second\": " << (wall > 0 ? double(n) * steps / wall : 0.0) << ",\n"
      << "  \"particle_steps_per_second_per_rank\": [";
   for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << rates[r];
-  js << "],\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"active_modules\": [";
+  js << "],\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
+  for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << sim.domain.cuts[r];
+  js << "],\n  \"imbalance_at_last_balancing\": " << sim.imbalance << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
   for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << "\"" << names[k] << "\"";
   js << "],\n  \"final_kinetic_energy\": " << ke << "\n}\n";

@@ -38,6 +38,10 @@ struct Decomposition {
   double slab_lo() const { return cuts[rank]; }
   double slab_hi() const { return cuts[rank + 1]; }
   int owner(double coord) const;  // rank whose slab holds this coordinate along axis (clamped)
+  // Moves the cuts so that every slab holds about the same cost: `coord` and `cost` are this
+  // rank's particles' positions along the axis and their costs. Collective. Returns the
+  // imbalance (max over mean of the per-rank cost) before the move.
+  double balance(const std::vector<double>& coord, const std::vector<double>& cost);
   bool periodic(int d) const { return boundary[d] == Boundary::Periodic; }
 };
 
