@@ -11,6 +11,24 @@
 
 namespace cassini::test {
 
+// Two 1 mm glass spheres in an empty periodic 10 cm box, no initial particles (tests add them):
+// the scene of the binary-collision and single-contact tests.
+inline const char* kPair = R"(
+modules = ["contact"]
+[domain]
+lo = [-0.05, -0.05, -0.05]
+hi = [0.05, 0.05, 0.05]
+[[species]]
+density = 2500.0
+radius = 0.001
+t_c = 1.0e-4
+e = 0.5
+[particles]
+init = "none"
+[time]
+end = 1.0
+)";
+
 inline Config config_from(const std::string& text, const std::vector<std::string>& overrides = {}) {
   CaseFile cf = CaseFile::parse(text, "test.toml", overrides);
   return read_config(cf);

@@ -11,21 +11,6 @@ using namespace cassini::test;
 
 namespace {
 
-const char* kPair = R"(
-modules = ["contact"]
-[domain]
-lo = [-0.05, -0.05, -0.05]
-hi = [0.05, 0.05, 0.05]
-[[species]]
-density = 2500.0
-radius = 0.001
-t_c = 1.0e-4
-e = 0.5
-[particles]
-init = "none"
-[time]
-end = 1.0
-)";
 
 struct Collision {
   double restitution;
