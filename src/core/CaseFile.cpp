@@ -235,6 +235,22 @@ std::vector<std::string> CaseFile::strings(const std::string& key,
   return out;
 }
 
+std::vector<std::array<double, 2>> CaseFile::points(const std::string& key) {
+  mark(canonical(split_key(key)));
+  const auto* n = find(key);
+  const auto* a = n ? n->as_array() : nullptr;
+  if (!a) fail(key, "an array of [x, y] points");
+  std::vector<std::array<double, 2>> out;
+  for (auto&& e : *a) {
+    const auto* p = e.as_array();
+    if (!p || p->size() != 2) fail(key, "points written as [x, y]");
+    auto x = p->get(0)->value<double>(), y = p->get(1)->value<double>();
+    if (!x || !y || !std::isfinite(*x) || !std::isfinite(*y)) fail(key, "points of two finite numbers");
+    out.push_back({*x, *y});
+  }
+  return out;
+}
+
 std::size_t CaseFile::array_size(const std::string& key) {
   const auto* n = find(key);
   if (!n) return 0;

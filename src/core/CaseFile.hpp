@@ -2,6 +2,7 @@
 // Reading a TOML case file with errors a user can act on: every failure names the file,
 // the key and what was expected. Keys are tracked as they are read, so that any key the
 // solver never looked at is reported as unknown instead of being silently ignored.
+#include <array>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -33,6 +34,8 @@ class CaseFile {
   Vec3 vec3(const std::string& key, std::optional<Vec3> fallback = std::nullopt);
   std::vector<std::string> strings(const std::string& key,
                                    std::optional<std::vector<std::string>> fallback = std::nullopt);
+  // An array of [x, y] pairs (a polyline).
+  std::vector<std::array<double, 2>> points(const std::string& key);
   std::size_t array_size(const std::string& key);  // number of entries of an array of tables
 
   // Throws ConfigError for the first key in the file that was never read.

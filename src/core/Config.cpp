@@ -25,7 +25,8 @@ bool Config::has_module(const std::string& name) const {
 
 namespace {
 
-const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls", "hill", "moonlet"};
+const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls", "hill", "moonlet",
+                                                "channel", "drag", "inlet", "clog"};
 
 int axis_index(CaseFile& f, const std::string& key, const std::string& v) {
   if (v == "x") return 0;
@@ -106,7 +107,9 @@ Config read_config(CaseFile& f) {
   c.modules = f.strings("modules", std::vector<std::string>{"contact"});
   for (const auto& m : c.modules)
     if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end())
-      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet}; unknown module '" + m + "'");
+      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet, channel, drag, inlet, clog}; unknown module '" + m + "'");
+  for (const char* m : {"drag", "inlet", "clog"})
+    if (c.has_module(m) && !c.has_module("channel")) f.fail("modules", std::string("\"channel\" with \"") + m + "\" (it needs the channel geometry)");
 
   // ---- Hill frame, moonlet, shear
   if (c.has_module("hill") || c.has_module("moonlet")) {
@@ -129,6 +132,8 @@ Config read_config(CaseFile& f) {
   const bool has_walls = std::find(c.boundary.begin(), c.boundary.end(), Boundary::Wall) != c.boundary.end();
   if (has_walls && !c.has_module("walls")) c.modules.push_back("walls");  // walls are geometry
   if (c.planar && c.boundary[2] == Boundary::Wall) f.fail("domain.boundary", "no z walls in a planar scene");
+
+  if (c.has_module("channel")) read_channel_config(f, c);
 
   // ---- contact
   c.clip_normal = f.boolean("contact.clip_normal", false);

@@ -8,6 +8,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Vec3.hpp"
+#include "physics/ChannelConfig.hpp"
 
 namespace cassini {
 
@@ -82,6 +83,8 @@ struct Config {
   double energy_growth = 1e3;         // stop when kinetic energy grows by this factor (no source)
 
   std::uint64_t seed = 1;
+
+  ChannelConfig channel;  // modules channel, drag, inlet, clog
 
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
   double max_radius() const;

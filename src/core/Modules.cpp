@@ -1,7 +1,11 @@
 #include "core/Modules.hpp"
 
 #include "core/Simulation.hpp"
+#include "physics/ChannelWalls.hpp"
+#include "physics/ClogMonitor.hpp"
 #include "physics/ContactForces.hpp"
+#include "physics/Inlet.hpp"
+#include "physics/StokesDrag.hpp"
 #include "physics/Gravity.hpp"
 #include "physics/Guards.hpp"
 #include "physics/HillFrame.hpp"
@@ -24,12 +28,20 @@ std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation&
   // Force order is fixed (contacts, walls, body forces): part of what makes runs reproducible.
   if (cfg.has_module("contact")) m.push_back(std::make_unique<ContactForces>(cfg, sim.dt));
   if (cfg.has_module("walls")) m.push_back(std::make_unique<PlaneWalls>(cfg, sim.dt));
+  if (cfg.has_module("channel")) {
+    auto walls = std::make_unique<ChannelWalls>(cfg, sim.dt, static_cast<int>(domain_walls(cfg).size()));
+    const ChannelGeometry& geo = walls->geometry();
+    m.push_back(std::move(walls));
+    if (cfg.has_module("drag")) m.push_back(std::make_unique<StokesDrag>(cfg, geo));
+    if (cfg.has_module("inlet")) m.push_back(std::make_unique<Inlet>(cfg, geo));
+    if (cfg.has_module("clog")) m.push_back(std::make_unique<ClogMonitor>(cfg));
+  }
   if (cfg.has_module("moonlet")) m.push_back(std::make_unique<Moonlet>(cfg, sim.dt));
   if (cfg.has_module("hill")) m.push_back(std::make_unique<HillFrame>(cfg));
   if (cfg.has_module("gravity")) m.push_back(std::make_unique<Gravity>(cfg.gravity));
   // Kinetic energy may legitimately grow where something feeds it: gravity, the frame's
   // potential, a moonlet, shear at a Lees-Edwards boundary.
-  const bool source = cfg.has_module("gravity") || cfg.has_module("hill") || cfg.has_module("moonlet") || cfg.sheared();
+  const bool source = cfg.has_module("drag") || cfg.has_module("inlet") || cfg.has_module("gravity") || cfg.has_module("hill") || cfg.has_module("moonlet") || cfg.sheared();
   m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, source));
   return m;
 }

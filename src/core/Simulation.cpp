@@ -11,6 +11,7 @@
 #include "io/RunOutput.hpp"
 #include "physics/ContactForces.hpp"
 #include "physics/Moonlet.hpp"
+#include "physics/ChannelGeometry.hpp"
 #include "physics/PlaneWalls.hpp"
 
 namespace cassini {
@@ -22,9 +23,16 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   range = 2 * cfg.max_radius() + skin;  // largest a_i + a_j + skin
   particles.rotation = cfg.friction();
   particles.walls = static_cast<int>(domain_walls(cfg).size());
+  if (cfg.has_module("channel")) particles.walls += ChannelGeometry(cfg.channel).features();
 }
 
 Simulation::~Simulation() = default;
+
+void Simulation::set_result(const std::string& key, const std::string& json_value) {
+  for (auto& [k, v] : results)
+    if (k == key) { v = json_value; return; }
+  results.emplace_back(key, json_value);
+}
 
 std::vector<std::string> Simulation::module_names() const {
   std::vector<std::string> names;
@@ -45,13 +53,13 @@ void Simulation::setup() {
   if (particles.size() == 0 && !restored) place_particles(cfg, domain, particles);
   particles.nlocal = particles.size();
   rebuild();
+  for (auto& m : modules) m->setup(*this);  // modules may need the placed particles (and set up data F needs)
   if (!restored) {
     compute_forces();
     check_initial_overlaps();
   } else if (contact) {
     contact->refresh_diagnostics(*this);
   }
-  for (auto& m : modules) m->setup(*this);
 }
 
 void Simulation::check_initial_overlaps() {
@@ -155,7 +163,7 @@ void Simulation::run(RunOutput* out) {
   const long observe_every = std::max(1L, std::lround(cfg.observe_every / dt));
   const long dump_every = cfg.dump_every > 0 ? std::max(1L, std::lround(cfg.dump_every / dt)) : 0;
   const long snap_every = cfg.snapshot_every > 0 ? std::max(1L, std::lround(cfg.snapshot_every / dt)) : 0;
-  const long n_total = total_particles();
+  long n_total = total_particles();
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   auto last_print = t0;
@@ -165,7 +173,7 @@ void Simulation::run(RunOutput* out) {
     if (dump_every) out->dump(*this, "step");
     if (snap_every && !restored && time >= cfg.snapshot_from) out->snapshot(*this);
   }
-  while (step_count < nsteps) {
+  while (step_count < nsteps && !finished) {
     try {
       step();
     } catch (const GuardError&) {
@@ -181,6 +189,7 @@ void Simulation::run(RunOutput* out) {
       int print = since >= cfg.progress_every;
       MPI_Bcast(&print, 1, MPI_INT, 0, domain.comm);  // rank 0's clock decides, for everyone
       if (print) {
+        n_total = total_particles();  // changes in scenes with an inlet and an outlet
         const double rate = double(step_count - last_step) * n_total / since;
         const double elapsed = std::chrono::duration<double>(now - t0).count();
         const double eta = elapsed / step_count * (nsteps - step_count);

@@ -82,6 +82,14 @@ class Simulation {
 
   std::vector<std::string> module_names() const;
 
+  // A module may end the run early (collectively: every rank calls it on the same step), and
+  // publish results for summary.json (values are JSON text).
+  void finish(const std::string& why) { finished = true; finish_reason = why; }
+  void set_result(const std::string& key, const std::string& json_value);
+  bool finished = false;
+  std::string finish_reason;
+  std::vector<std::pair<std::string, std::string>> results;
+
  private:
   void compute_forces();
   void check_guards();

@@ -132,7 +132,10 @@ void RunOutput::summary(Simulation& sim, double wall, long steps) {
   js << "],\n  \"imbalance_at_last_balancing\": " << sim.imbalance << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
   for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << "\"" << names[k] << "\"";
-  js << "],\n  \"final_kinetic_energy\": " << ke << "\n}\n";
+  js << "],\n  \"final_kinetic_energy\": " << ke;
+  if (sim.finished) js << ",\n  \"ended\": \"" << sim.finish_reason << "\"";
+  for (const auto& [k, v] : sim.results) js << ",\n  \"" << k << "\": " << v;
+  js << "\n}\n";
   write_text("summary.json", js.str());
 }
 

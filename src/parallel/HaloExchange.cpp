@@ -74,6 +74,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
         x[d] -= L[d] * std::floor((x[d] - dom_.lo[d]) / L[d]);
         if (x[d] >= dom_.hi[d]) x[d] = dom_.lo[d];  // round-off at the upper face
       } else if (dom_.boundary[d] == Boundary::Open && (x[d] < dom_.lo[d] || x[d] >= dom_.hi[d])) {
+        if (!gone && x[d] >= dom_.hi[d]) ++removed_upper;
         gone = true;
       }
     }

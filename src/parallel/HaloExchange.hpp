@@ -36,6 +36,7 @@ class HaloExchange {
   void update_ghosts(ParticleStore& p);
 
   std::int64_t removed = 0;
+  std::int64_t removed_upper = 0;  // of those, through an upper face (an outlet downstream)
   double shear_momentum = 0;  // sum of m dv_x applied by Lees-Edwards crossings on this rank
   std::int64_t shear_crossings = 0;  // particles wrapped through the sheared boundary here
 

@@ -4,13 +4,18 @@
 #include <sstream>
 
 #include "core/Simulation.hpp"
+#include "physics/ChannelWalls.hpp"
 #include "physics/ContactForces.hpp"
 #include "physics/Moonlet.hpp"
 #include "physics/PlaneWalls.hpp"
 
 namespace cassini {
 
-void Guards::setup(Simulation& sim) { ke0_ = sim.kinetic_energy(); }
+void Guards::setup(Simulation& sim) {
+  ke0_ = sim.kinetic_energy();
+  for (const auto& m : sim.modules)
+    if (auto* c = dynamic_cast<const ChannelWalls*>(m.get())) channel_ = c;
+}
 
 void Guards::end_of_step(Simulation& sim) {
   const ParticleStore& p = sim.particles;
@@ -37,6 +42,8 @@ void Guards::end_of_step(Simulation& sim) {
         << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
   if (why.tellp() == 0 && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
     why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
+  if (why.tellp() == 0 && channel_ && channel_->max_overlap_fraction() > max_overlap_)
+    why << "channel wall overlap of " << channel_->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
   if (why.tellp() == 0 && sim.moonlet && sim.moonlet->max_overlap_fraction() > max_overlap_)
     why << "moonlet overlap of " << sim.moonlet->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_
         << " (impact too fast for t_c)";

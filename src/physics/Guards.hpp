@@ -22,6 +22,7 @@ class Guards : public Module {
   double max_overlap_, energy_growth_;
   bool energy_source_;
   double ke0_ = 0;
+  const class ChannelWalls* channel_ = nullptr;
 };
 
 }  // namespace cassini

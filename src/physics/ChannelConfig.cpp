@@ -1,0 +1,123 @@
+#include "physics/ChannelConfig.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "core/CaseFile.hpp"
+#include "core/Config.hpp"
+
+namespace cassini {
+namespace {
+
+double positive(CaseFile& f, const std::string& key, std::optional<double> fallback = std::nullopt) {
+  const double v = f.number(key, fallback);
+  if (!(v > 0)) f.fail(key, "a positive number");
+  return v;
+}
+
+std::vector<Point2> polyline(CaseFile& f, const std::string& key) {
+  std::vector<Point2> pts = f.points(key);
+  if (pts.size() < 2) f.fail(key, "at least 2 points");
+  for (std::size_t k = 1; k < pts.size(); ++k)
+    if (!(pts[k][0] > pts[k - 1][0])) f.fail(key, "points with strictly increasing x");
+  return pts;
+}
+
+double interpolate(const std::vector<Point2>& line, double x) {
+  if (x <= line.front()[0]) return line.front()[1];
+  for (std::size_t k = 1; k < line.size(); ++k)
+    if (x <= line[k][0]) {
+      const double t = (x - line[k - 1][0]) / (line[k][0] - line[k - 1][0]);
+      return line[k - 1][1] + t * (line[k][1] - line[k - 1][1]);
+    }
+  return line.back()[1];
+}
+
+}  // namespace
+
+void read_channel_config(CaseFile& f, Config& c) {
+  ChannelConfig& ch = c.channel;
+  if (c.boundary[2] != Boundary::Wall) f.fail("domain.boundary", "z walls (the channel floor and ceiling)");
+  if (c.boundary[1] == Boundary::Wall)
+    f.fail("domain.boundary", "y \"open\": the channel's side walls are its outline, not the domain's y faces");
+  const double yc = 0.5 * (c.lo[1] + c.hi[1]), half = 0.5 * (c.hi[1] - c.lo[1]);
+  const double margin = c.hi[0] - c.lo[0];  // outline continues beyond the domain's x faces
+
+  if (f.has("channel.upper") || f.has("channel.lower")) {
+    ch.upper = polyline(f, "channel.upper");
+    ch.lower = polyline(f, "channel.lower");
+  } else {
+    // The thesis's neck: straight walls at y = +-w/2 converging into a neck of width D at the
+    // contraction angle (135 deg: walls at 45 deg to the axis), opening at the expansion angle.
+    const double D = positive(f, "channel.neck_width");
+    if (D >= 2 * half) f.fail("channel.neck_width", "a width smaller than the domain's y extent");
+    const double ca = f.number("channel.contraction_angle", 135.0), ea = f.number("channel.expansion_angle", 120.0);
+    if (!(ca > 90 && ca < 180)) f.fail("channel.contraction_angle", "an angle in (90, 180) degrees");
+    if (!(ea > 90 && ea < 180)) f.fail("channel.expansion_angle", "an angle in (90, 180) degrees");
+    const double len = f.number("channel.neck_length", 0.0);
+    if (len < 0) f.fail("channel.neck_length", "a length >= 0");
+    const double x0 = f.number("channel.neck_x", 0.0) - 0.5 * len, x1 = x0 + len;
+    const double deg = std::numbers::pi / 180, rise = half - 0.5 * D;
+    const double dxc = rise / std::tan((180 - ca) * deg), dxe = rise / std::tan((180 - ea) * deg);
+    std::vector<Point2> up = {{c.lo[0] - margin, half}, {x0 - dxc, half}, {x0, 0.5 * D}};
+    if (len > 0) up.push_back({x1, 0.5 * D});
+    up.push_back({x1 + dxe, half});
+    up.push_back({c.hi[0] + margin, half});
+    for (auto& p : up) {
+      ch.upper.push_back({p[0], yc + p[1]});
+      ch.lower.push_back({p[0], yc - p[1]});
+    }
+  }
+  // The neck: the narrowest gap (a sharp neck is a single x).
+  std::vector<double> xs;
+  for (const auto& p : ch.upper) xs.push_back(p[0]);
+  for (const auto& p : ch.lower) xs.push_back(p[0]);
+  ch.neck_width = 1e300;
+  for (double x : xs) {
+    if (x < c.lo[0] || x > c.hi[0]) continue;
+    const double gap = interpolate(ch.upper, x) - interpolate(ch.lower, x);
+    if (gap < ch.neck_width - 1e-12 * half) { ch.neck_width = gap; ch.neck_x0 = ch.neck_x1 = x; }
+    else if (gap < ch.neck_width + 1e-12 * half) ch.neck_x1 = std::max(ch.neck_x1, x);
+  }
+  if (!(ch.neck_width > 0)) f.fail("channel.upper", "an outline above channel.lower everywhere");
+  if (ch.neck_width > 1e299) f.fail("channel.upper", "outline points inside the domain's x range");
+
+  // [flow]
+  const double D = ch.neck_width;
+  ch.mean_velocity = positive(f, "flow.mean_velocity");
+  ch.viscosity = positive(f, "flow.viscosity", 1.8e-3);
+  ch.fluid_density = positive(f, "flow.density", 1050.0);
+  ch.resolution = static_cast<int>(f.integer("flow.resolution", 10));
+  if (ch.resolution < 2 || ch.resolution % 2) f.fail("flow.resolution", "an even number of cells per neck width, >= 2");
+  ch.solve_half_length = positive(f, "flow.solve_half_length", 5 * D);
+  ch.series_terms = static_cast<int>(f.integer("flow.series_terms", 40));
+  if (ch.series_terms < 1) f.fail("flow.series_terms", "a positive number of odd terms");
+  ch.cache_dir = f.string("flow.cache", "flow-cache");
+  if (!ch.cache_dir.empty() && ch.cache_dir[0] != '/') ch.cache_dir = f.directory() + "/" + ch.cache_dir;
+
+  // [drag]
+  ch.voidage = f.string("drag.voidage", "beetstra");
+  if (ch.voidage != "beetstra" && ch.voidage != "thesis" && ch.voidage != "stokes")
+    f.fail("drag.voidage", "\"beetstra\" (default, f -> 1 when dilute), \"thesis\" (2 k phi/(1-phi)^2) or \"stokes\" (f = 1)");
+  ch.phi_width = positive(f, "drag.width", 100e-6);
+  ch.phi_refresh = positive(f, "drag.refresh", 1e-4);
+
+  // [inlet]
+  ch.inlet_length = positive(f, "inlet.length", D);
+  ch.inlet_x = f.number("inlet.x", c.lo[0] + ch.inlet_length);
+  if (ch.inlet_x - 0.5 * ch.inlet_length < c.lo[0] || ch.inlet_x + 0.5 * ch.inlet_length > ch.neck_x0)
+    f.fail("inlet.x", "an insertion zone (x +- length/2) inside the domain and upstream of the neck");
+  ch.inlet_fraction = f.number("inlet.volume_fraction", 0.2);
+  if (!(ch.inlet_fraction > 0 && ch.inlet_fraction < 0.5)) f.fail("inlet.volume_fraction", "a volume fraction in (0, 0.5)");
+  ch.inlet_every = positive(f, "inlet.every", ch.inlet_length / (4 * ch.mean_velocity));
+  ch.inlet_attempts = static_cast<int>(f.integer("inlet.attempts", 200));
+  if (ch.inlet_attempts < 1) f.fail("inlet.attempts", "a positive integer");
+
+  // [clog]
+  ch.clog_window = positive(f, "clog.window", 1.0);
+  ch.pass_x = f.number("clog.pass_x", ch.neck_x1 + c.max_radius());
+  if (ch.pass_x < ch.neck_x1 || ch.pass_x >= c.hi[0]) f.fail("clog.pass_x", "an x between the neck's exit and the domain's end");
+}
+
+}  // namespace cassini

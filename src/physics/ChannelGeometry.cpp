@@ -1,0 +1,67 @@
+#include "physics/ChannelGeometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cassini {
+
+ChannelGeometry::ChannelGeometry(const ChannelConfig& c) : upper_(c.upper), lower_(c.lower) {
+  add_wall(upper_, -1);  // fluid below the upper wall
+  add_wall(lower_, +1);  // and above the lower one
+}
+
+double ChannelGeometry::interpolate(const std::vector<Point2>& line, double x) {
+  if (x <= line.front()[0]) return line.front()[1];
+  const auto it = std::lower_bound(line.begin(), line.end(), x, [](const Point2& p, double v) { return p[0] < v; });
+  if (it == line.end()) return line.back()[1];
+  const Point2& b = *it;
+  const Point2& a = *(it - 1);
+  return a[1] + (x - a[0]) / (b[0] - a[0]) * (b[1] - a[1]);
+}
+
+void ChannelGeometry::add_wall(const std::vector<Point2>& line, double side) {
+  const int first = static_cast<int>(faces_.size());
+  const int n = static_cast<int>(line.size()) - 1;
+  for (int k = 0; k < n; ++k) {
+    const double dx = line[k + 1][0] - line[k][0], dy = line[k + 1][1] - line[k][1];
+    const double len = std::hypot(dx, dy), tx = dx / len, ty = dy / len;
+    // Normal towards the fluid: the tangent turned by -90 deg (upper wall) or +90 deg (lower).
+    const double nx = side < 0 ? ty : -ty, ny = side < 0 ? -tx : tx;
+    // The outline's end segments continue beyond the domain: no end there.
+    faces_.push_back({line[k][0], line[k][1], tx, ty, len, nx, ny, k == 0, k == n - 1});
+  }
+  for (int k = 1; k < n; ++k) vertices_.push_back({line[k][0], line[k][1], first + k - 1, first + k});
+}
+
+void ChannelGeometry::contacts(double x, double y, double reach, std::vector<WallContact>& out) const {
+  const int nf = static_cast<int>(faces_.size());
+  for (int k = 0; k < nf; ++k) {
+    const Face& f = faces_[k];
+    const double px = x - f.x0, py = y - f.y0;
+    const double t = px * f.tx + py * f.ty;
+    if ((t < 0 && !f.open0) || (t > f.len && !f.open1)) continue;  // the vertex's business
+    const double s = px * f.nx + py * f.ny;
+    if (s < reach && s > -reach) out.push_back({k, s, f.nx, f.ny});
+  }
+  for (std::size_t k = 0; k < vertices_.size(); ++k) {
+    const Vertex& v = vertices_[k];
+    const Face& a = faces_[v.before];
+    const Face& b = faces_[v.after];
+    const double px = x - v.x, py = y - v.y;
+    // In the vertex's region: past the end of the face before and before the start of the next.
+    if (px * a.tx + py * a.ty <= 0 || px * b.tx + py * b.ty >= 0) continue;
+    const double d = std::hypot(px, py);
+    if (d < reach && d > 0) out.push_back({nf + static_cast<int>(k), d, px / d, py / d});
+  }
+}
+
+double ChannelGeometry::clearance(double x, double y) const {
+  if (!inside(x, y)) return -1;
+  std::vector<WallContact> near;
+  contacts(x, y, 1e300, near);
+  double best = 1e300;
+  for (const auto& c : near) best = std::min(best, c.distance);
+  return best;
+}
+
+}  // namespace cassini

@@ -1,0 +1,44 @@
+#pragma once
+// The channel's side walls as geometry: two polylines in the xy plane, extruded over the
+// channel height. Each wall is a set of features a sphere can touch: faces (segments) and
+// vertical edges (interior vertices). A sphere touches a vertex only when it lies in that
+// vertex's own region (beyond the ends of both adjacent segments), so a sphere is never
+// pushed twice by one corner, and the force is continuous when it rolls from a face onto an
+// edge. At a concave corner that region lies behind the walls: there the sphere feels both
+// faces, as it should.
+#include <vector>
+
+#include "physics/ChannelConfig.hpp"
+
+namespace cassini {
+
+struct WallContact {
+  int feature;     // index into features() (tangential-history slot)
+  double distance; // centre to feature, in the xy plane
+  double nx, ny;   // unit normal from the wall towards the centre
+};
+
+class ChannelGeometry {
+ public:
+  explicit ChannelGeometry(const ChannelConfig& c);
+
+  double upper_y(double x) const { return interpolate(upper_, x); }
+  double lower_y(double x) const { return interpolate(lower_, x); }
+  bool inside(double x, double y) const { return y < upper_y(x) && y > lower_y(x); }
+  // Smallest distance from (x, y) to any wall (positive inside the fluid).
+  double clearance(double x, double y) const;
+  int features() const { return static_cast<int>(faces_.size() + vertices_.size()); }
+  // Every feature within `reach` of the centre (x, y), appended to out.
+  void contacts(double x, double y, double reach, std::vector<WallContact>& out) const;
+
+ private:
+  struct Face { double x0, y0, tx, ty, len, nx, ny; bool open0, open1; };
+  struct Vertex { double x, y; int before, after; };  // faces on either side
+  static double interpolate(const std::vector<Point2>& line, double x);
+  void add_wall(const std::vector<Point2>& line, double side);
+  std::vector<Point2> upper_, lower_;
+  std::vector<Face> faces_;
+  std::vector<Vertex> vertices_;
+};
+
+}  // namespace cassini

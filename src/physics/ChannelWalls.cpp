@@ -1,0 +1,50 @@
+#include "physics/ChannelWalls.hpp"
+
+#include <sstream>
+
+#include "core/Simulation.hpp"
+
+namespace cassini {
+
+ChannelWalls::ChannelWalls(const Config& cfg, double dt, int first_slot)
+    : law_(cfg, dt), geometry_(cfg.channel), first_slot_(first_slot) {}
+
+void ChannelWalls::force(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const bool fric = law_.friction();
+  const int nf = geometry_.features();
+  double worst = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const double a = p.radius[i];
+    touching_.clear();
+    geometry_.contacts(p.x[i][0], p.x[i][1], a, touching_);
+    Vec3* xi = fric ? &p.wall_xi[i * p.walls + first_slot_] : nullptr;
+    // Springs of features no longer touched relax to zero (a new contact starts unloaded).
+    if (fric) {
+      unsigned long touched = 0;
+      for (const auto& c : touching_) touched |= 1ul << c.feature;
+      for (int k = 0; k < nf; ++k)
+        if (!(touched >> k & 1)) xi[k].setZero();
+    }
+    for (const auto& c : touching_) {
+      if (c.distance <= 0) {
+        std::ostringstream os;
+        os << "particle " << p.id[i] << " passed through a channel side wall at (" << p.x[i][0] << ", " << p.x[i][1] << ")";
+        sim.raise_guard(os.str());
+        continue;
+      }
+      const Vec3 n(c.nx, c.ny, 0);
+      const double delta = a - c.distance;
+      Vec3 vrel = p.v[i];
+      if (fric) vrel -= a * p.omega[i].cross(n);
+      Vec3 ft;
+      const int sp = p.species[i];
+      p.f[i] += law_.force(law_.law(sp, sp), p.mass[i], delta, n, vrel, fric ? &xi[c.feature] : nullptr, ft);
+      if (fric) p.torque[i] += (-a * n).cross(ft);
+      worst = std::max(worst, delta / a);
+    }
+  }
+  max_overlap_ = worst;
+}
+
+}  // namespace cassini

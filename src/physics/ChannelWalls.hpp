@@ -1,0 +1,30 @@
+#pragma once
+// Particle contacts with the channel's side walls (ChannelGeometry): the same LSD law and
+// Coulomb friction as particle-particle contacts, the wall taken as an infinite mass. Each
+// wall feature has its own tangential-history slot per particle, after the domain's planes.
+#include <vector>
+
+#include "core/Module.hpp"
+#include "physics/ChannelGeometry.hpp"
+#include "physics/LinearSpringDashpot.hpp"
+
+namespace cassini {
+
+class ChannelWalls : public Module {
+ public:
+  ChannelWalls(const Config& cfg, double dt, int first_slot);
+  std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
+  unsigned stages() const override { return kForce; }
+  void force(Simulation& sim) override;
+  double max_overlap_fraction() const { return max_overlap_; }
+  const ChannelGeometry& geometry() const { return geometry_; }
+
+ private:
+  LinearSpringDashpot law_;
+  ChannelGeometry geometry_;
+  int first_slot_;
+  double max_overlap_ = 0;
+  std::vector<WallContact> touching_;
+};
+
+}  // namespace cassini

@@ -1,0 +1,281 @@
+#include "physics/FlowField.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <sstream>
+
+#include "core/CaseFile.hpp"
+#include "io/Hdf5Handle.hpp"
+#include "physics/ChannelGeometry.hpp"
+#include "physics/DuctFlow.hpp"
+#include "physics/StokesSolver.hpp"
+
+namespace fs = std::filesystem;
+
+namespace cassini {
+namespace {
+
+using h5::Handle;
+using h5::check;
+
+// The solve region's grid, derived from the case: cubic cells of D / resolution, aligned so
+// that the neck's ends and the channel's side and floor lie on cell faces.
+struct SolveBox {
+  double dx, x0, y0, z0;
+  int nx, ny, nz;
+};
+
+SolveBox solve_box(const Config& cfg) {
+  const ChannelConfig& ch = cfg.channel;
+  SolveBox b;
+  b.dx = ch.neck_width / ch.resolution;
+  const int half = static_cast<int>(std::lround(ch.solve_half_length / b.dx));
+  b.x0 = ch.neck_x0 - half * b.dx;
+  b.nx = half * 2 + static_cast<int>(std::lround((ch.neck_x1 - ch.neck_x0) / b.dx));
+  b.y0 = cfg.lo[1];
+  b.z0 = cfg.lo[2];
+  const double ny = (cfg.hi[1] - cfg.lo[1]) / b.dx, nz = (cfg.hi[2] - cfg.lo[2]) / b.dx;
+  b.ny = static_cast<int>(std::lround(ny));
+  b.nz = static_cast<int>(std::lround(nz));
+  if (std::abs(ny - b.ny) > 1e-6 || std::abs(nz - b.nz) > 1e-6 || b.nz < 2)
+    throw ConfigError(cfg.source + ": key 'flow.resolution': the channel's width and height must be whole numbers of cells "
+                      "(D / resolution = " + std::to_string(b.dx) + " m)");
+  return b;
+}
+
+// Everything the solve depends on, as text: the cache is keyed by its hash and checked
+// against the full text.
+std::string cache_key(const Config& cfg, const SolveBox& b) {
+  std::ostringstream os;
+  os.precision(17);
+  os << "stokes-v1 dx=" << b.dx << " x0=" << b.x0 << " y0=" << b.y0 << " z0=" << b.z0 << " n=" << b.nx << "," << b.ny
+     << "," << b.nz << " v=" << cfg.channel.mean_velocity << " upper=";
+  for (const auto& p : cfg.channel.upper) os << p[0] << ":" << p[1] << ";";
+  os << " lower=";
+  for (const auto& p : cfg.channel.lower) os << p[0] << ":" << p[1] << ";";
+  return os.str();
+}
+
+struct Solved {
+  std::vector<double> u, v, w;  // nodes of the solve region (nx+1)(ny+1)(nz+1)
+  FlowReport report;
+};
+
+Solved compute(const Config& cfg, const SolveBox& b) {
+  const ChannelConfig& ch = cfg.channel;
+  const ChannelGeometry geo(ch);
+  StokesGrid g;
+  g.nx = b.nx; g.ny = b.ny; g.nz = b.nz; g.dx = b.dx;
+  g.viscosity = ch.viscosity;
+  g.fluid.assign(std::size_t(b.nx) * b.ny * b.nz, 0);
+  for (int i = 0; i < b.nx; ++i)
+    for (int j = 0; j < b.ny; ++j) {
+      const bool in = geo.inside(b.x0 + (i + 0.5) * b.dx, b.y0 + (j + 0.5) * b.dx);
+      for (int k = 0; k < b.nz; ++k) g.fluid[(std::size_t(i) * b.ny + j) * b.nz + k] = in;
+    }
+  std::vector<char> first(g.fluid.begin(), g.fluid.begin() + b.ny * b.nz);
+  std::vector<char> last(g.fluid.end() - b.ny * b.nz, g.fluid.end());
+  if (first != last)
+    throw ConfigError(cfg.source + ": key 'flow.solve_half_length': the solve region must end where the channel has "
+                      "the same cross-section at both ends");
+  const double W = cfg.hi[1] - cfg.lo[1], H = cfg.hi[2] - cfg.lo[2];
+  const double Q = ch.mean_velocity * W * H;
+  g.inflow = duct_profile(b.ny, b.nz, b.dx, first, Q);
+  const StokesSolution s = solve_stokes(g);
+
+  Solved out;
+  FlowReport& r = out.report;
+  r.solve_seconds = s.seconds;
+  r.iterations = s.iterations;
+  r.residual = s.residual;
+  r.max_divergence = s.max_divergence;
+  const int nx = b.nx, ny = b.ny, nz = b.nz;
+  auto U = [&](int i, int j, int k) { return s.u[(std::size_t(i) * ny + j) * nz + k]; };
+  auto V = [&](int i, int j, int k) { return s.v[(std::size_t(i) * (ny + 1) + j) * nz + k]; };
+  auto Wf = [&](int i, int j, int k) { return s.w[(std::size_t(i) * ny + j) * (nz + 1) + k]; };
+  auto fluid = [&](int i, int j, int k) {
+    return i >= 0 && i < nx && j >= 0 && j < ny && k >= 0 && k < nz && g.fluid[(std::size_t(i) * ny + j) * nz + k];
+  };
+  // Flow rate through every cross-section of faces.
+  for (int i = 0; i <= nx; ++i) {
+    double q = 0;
+    for (int j = 0; j < ny; ++j)
+      for (int k = 0; k < nz; ++k) q += U(i, j, k) * b.dx * b.dx;
+    r.flux_error = std::max(r.flux_error, std::abs(q - Q) / Q);
+  }
+  const int ineck = static_cast<int>(std::lround((ch.neck_x0 - b.x0) / b.dx));
+  {
+    double q = 0;
+    for (int j = 0; j < ny; ++j)
+      for (int k = 0; k < nz; ++k) q += U(ineck, j, k) * b.dx * b.dx;
+    r.neck_mean_over_mean = q / (ch.neck_width * H) / ch.mean_velocity;
+  }
+  // Far field: the face plane 4 D upstream of the neck against the series.
+  const DuctFlow duct(W, H, ch.mean_velocity, ch.series_terms);
+  const int ifar = std::max(0, ineck - static_cast<int>(std::lround(4 * ch.neck_width / b.dx)));
+  double e2 = 0, n2 = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int k = 0; k < nz; ++k) {
+      const double exact = duct.velocity(b.y0 + (j + 0.5) * b.dx - (cfg.lo[1] + 0.5 * W), (k + 0.5) * b.dx);
+      e2 += (U(ifar, j, k) - exact) * (U(ifar, j, k) - exact);
+      n2 += exact * exact;
+    }
+  r.far_field_error = std::sqrt(e2 / n2);
+
+  // Node values: zero on walls (any neighbouring cell solid), else the mean of the four faces
+  // of each component around the node.
+  const std::size_t nn = std::size_t(nx + 1) * (ny + 1) * (nz + 1);
+  out.u.assign(nn, 0.0); out.v.assign(nn, 0.0); out.w.assign(nn, 0.0);
+  for (int i = 0; i <= nx; ++i)
+    for (int j = 0; j <= ny; ++j)
+      for (int k = 0; k <= nz; ++k) {
+        bool wall = false;
+        for (int dj = -1; dj <= 0; ++dj)
+          for (int dk = -1; dk <= 0; ++dk)
+            for (int di = -1; di <= 0; ++di) {
+              const int ii = std::clamp(i + di, 0, nx - 1);  // beyond the ends: the straight duct
+              if (!fluid(ii, j + dj, k + dk)) wall = true;
+            }
+        if (wall) continue;
+        const std::size_t n = (std::size_t(i) * (ny + 1) + j) * (nz + 1) + k;
+        out.u[n] = 0.25 * (U(i, j - 1, k - 1) + U(i, j, k - 1) + U(i, j - 1, k) + U(i, j, k));
+        double sv = 0, sw = 0;
+        for (int di = -1; di <= 0; ++di) {
+          if (i + di < 0 || i + di >= nx) continue;  // v = w = 0 in the straight duct beyond
+          sv += V(i + di, j, k - 1) + V(i + di, j, k);
+          sw += Wf(i + di, j - 1, k) + Wf(i + di, j, k);
+        }
+        out.v[n] = 0.25 * sv;
+        out.w[n] = 0.25 * sw;
+      }
+  // Far-field centre-line over mean, from the node on the centre line 4 D upstream.
+  const std::size_t centre = (std::size_t(ifar) * (ny + 1) + ny / 2) * (nz + 1) + nz / 2;
+  r.centre_over_mean = out.u[centre] / ch.mean_velocity;
+  return out;
+}
+
+void write_cache(const std::string& file, const std::string& key, const SolveBox& b, const Solved& s) {
+  const std::string tmp = file + ".partial";
+  {
+    Handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "create " + tmp);
+    const hsize_t dims[3] = {hsize_t(b.nx + 1), hsize_t(b.ny + 1), hsize_t(b.nz + 1)};
+    for (auto [name, data] : {std::pair{"u", &s.u}, std::pair{"v", &s.v}, std::pair{"w", &s.w}}) {
+      Handle space(H5Screate_simple(3, dims, nullptr), H5Sclose, "space");
+      Handle d(H5Dcreate2(f, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose, name);
+      check(H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data->data()), name);
+    }
+    h5::attr_string(f, "key", key);
+    h5::attr_string(f, "layout", "node velocities [i][j][k] at (x0 + i dx, y0 + j dx, z0 + k dx), SI units");
+    const FlowReport& r = s.report;
+    h5::attr_array<double>(f, "origin_and_spacing", H5T_NATIVE_DOUBLE, {b.x0, b.y0, b.z0, b.dx});
+    h5::attr_array<double>(f, "report", H5T_NATIVE_DOUBLE,
+                           {r.solve_seconds, double(r.iterations), r.residual, r.max_divergence, r.flux_error,
+                            r.far_field_error, r.centre_over_mean, r.neck_mean_over_mean});
+  }
+  fs::rename(tmp, file);
+}
+
+bool read_cache(const std::string& file, const std::string& key, Solved& s) {
+  if (!fs::exists(file)) return false;
+  H5E_BEGIN_TRY {
+    hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return false;
+    Handle fh(f, H5Fclose, "open");
+    Handle a(H5Aopen(fh, "key", H5P_DEFAULT), H5Aclose, "key");
+    Handle t(H5Aget_type(a), H5Tclose, "type");
+    std::string stored(H5Tget_size(t), '\0');
+    check(H5Aread(a, t, stored.data()), "read key");
+    stored.resize(std::strlen(stored.c_str()));
+    if (stored != key) return false;  // a hash collision or a stale file: recompute
+    for (auto [name, data] : {std::pair{"u", &s.u}, std::pair{"v", &s.v}, std::pair{"w", &s.w}}) {
+      Handle d(H5Dopen2(fh, name, H5P_DEFAULT), H5Dclose, name);
+      Handle sp(H5Dget_space(d), H5Sclose, "space");
+      data->resize(H5Sget_simple_extent_npoints(sp));
+      check(H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data->data()), name);
+    }
+    Handle r(H5Aopen(fh, "report", H5P_DEFAULT), H5Aclose, "report");
+    double v[8];
+    check(H5Aread(r, H5T_NATIVE_DOUBLE, v), "report");
+    s.report = {v[0], int(v[1]), v[2], v[3], v[4], v[5], v[6], v[7], true};
+  } H5E_END_TRY;
+  return true;
+}
+
+}  // namespace
+
+FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
+  const ChannelConfig& ch = cfg.channel;
+  const SolveBox b = solve_box(cfg);
+  const std::string key = cache_key(cfg, b);
+  std::ostringstream name;
+  name << ch.cache_dir << "/flow_" << std::hex << std::hash<std::string>{}(key) << ".h5";
+  cache_file_ = name.str();
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  Solved s;
+  if (rank == 0 && !read_cache(cache_file_, key, s)) {
+    s = compute(cfg, b);
+    std::error_code ec;
+    fs::create_directories(ch.cache_dir, ec);
+    try {
+      write_cache(cache_file_, key, b, s);
+    } catch (const std::exception&) {
+      // A read-only case directory only costs the next run the solve again.
+    }
+  }
+  MPI_Barrier(comm);
+  if (rank != 0 && !read_cache(cache_file_, key, s)) s = compute(cfg, b);  // cache not writable
+  report_ = s.report;
+
+  // Nodes over the whole domain: the solve's nodes, and the duct series outside them.
+  dx_ = b.dx;
+  const int ilo = static_cast<int>(std::floor((cfg.lo[0] - b.x0) / b.dx)) - 1;
+  const int ihi = std::max(static_cast<int>(std::ceil((cfg.hi[0] - b.x0) / b.dx)) + 1, b.nx);
+  const int first = std::min(ilo, 0);
+  n_[0] = ihi - first + 1;
+  n_[1] = b.ny + 1;
+  n_[2] = b.nz + 1;
+  origin_ = Vec3(b.x0 + first * b.dx, b.y0, b.z0);
+  const std::size_t plane = std::size_t(n_[1]) * n_[2];
+  u_.assign(n_[0] * plane, 0.0); v_ = u_; w_ = u_;
+  const double W = cfg.hi[1] - cfg.lo[1];
+  const DuctFlow duct(W, cfg.hi[2] - cfg.lo[2], ch.mean_velocity, ch.series_terms);
+  std::vector<double> series(plane);
+  for (int j = 0; j < n_[1]; ++j)
+    for (int k = 0; k < n_[2]; ++k) series[j * n_[2] + k] = duct.velocity(j * b.dx - 0.5 * W, k * b.dx);
+  for (int i = 0; i < n_[0]; ++i) {
+    const int is = i + first;  // index in the solve region
+    const std::size_t at = i * plane;
+    if (is >= 0 && is <= b.nx) {
+      std::copy_n(s.u.begin() + is * plane, plane, u_.begin() + at);
+      std::copy_n(s.v.begin() + is * plane, plane, v_.begin() + at);
+      std::copy_n(s.w.begin() + is * plane, plane, w_.begin() + at);
+    } else {
+      std::copy(series.begin(), series.end(), u_.begin() + at);
+    }
+  }
+}
+
+Vec3 FlowField::velocity(const Vec3& x) const {
+  double f[3];
+  int c[3];
+  for (int d = 0; d < 3; ++d) {
+    const double s = std::clamp((x[d] - origin_[d]) / dx_, 0.0, double(n_[d] - 1) - 1e-9);
+    c[d] = static_cast<int>(s);
+    f[d] = s - c[d];
+  }
+  Vec3 out = Vec3::Zero();
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b)
+      for (int e = 0; e < 2; ++e) {
+        const double wgt = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
+        const std::size_t n = (std::size_t(c[0] + a) * n_[1] + c[1] + b) * n_[2] + c[2] + e;
+        out += wgt * Vec3(u_[n], v_[n], w_[n]);
+      }
+  return out;
+}
+
+}  // namespace cassini

@@ -1,0 +1,45 @@
+#pragma once
+// The fluid velocity the drag sees: a steady Stokes solve on the channel's real geometry
+// near the neck (|x - neck| < flow.solve_half_length), the rectangular-duct series beyond,
+// both stored on one grid of nodes spaced D / flow.resolution and sampled by trilinear
+// interpolation. The solve runs once per geometry and resolution and is cached as HDF5 in
+// flow.cache (flow_<hash>.h5): a later run with the same geometry reads it in milliseconds.
+#include <string>
+
+#include <mpi.h>
+
+#include "core/Config.hpp"
+#include "core/Vec3.hpp"
+
+namespace cassini {
+
+struct FlowReport {
+  double solve_seconds = 0;
+  int iterations = 0;
+  double residual = 0, max_divergence = 0;
+  double flux_error = 0;          // max over cross-sections of |Q(x) - Q| / Q
+  double far_field_error = 0;     // relative L2 error of u against the series at 4 D upstream
+  double centre_over_mean = 0;    // far-field centre-line velocity / mean velocity
+  double neck_mean_over_mean = 0; // mean velocity through the neck / far-field mean
+  bool from_cache = false;
+};
+
+class FlowField {
+ public:
+  // Loads the cached solve or computes it on rank 0 of comm and caches it (collective).
+  FlowField(const Config& cfg, MPI_Comm comm);
+  Vec3 velocity(const Vec3& x) const;
+  const FlowReport& report() const { return report_; }
+  std::string cache_file() const { return cache_file_; }
+  double spacing() const { return dx_; }
+
+ private:
+  double dx_ = 0;
+  Vec3 origin_;         // position of node (0, 0, 0)
+  int n_[3] = {0, 0, 0};  // nodes per direction
+  std::vector<double> u_, v_, w_;  // node values, index (i * n_[1] + j) * n_[2] + k
+  std::string cache_file_;
+  FlowReport report_;
+};
+
+}  // namespace cassini

@@ -1,0 +1,106 @@
+#include "physics/Inlet.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "core/Initializer.hpp"
+#include "core/Simulation.hpp"
+#include "physics/StokesDrag.hpp"
+
+namespace cassini {
+
+namespace {
+struct Nearby {
+  std::int64_t id;
+  double x, y, z, a;
+};
+}  // namespace
+
+void Inlet::setup(Simulation& sim) {
+  every_ = std::max(1L, std::lround(cfg_.channel.inlet_every / sim.dt));
+  std::int64_t local = -1;
+  for (std::size_t i = 0; i < sim.particles.nlocal; ++i) local = std::max(local, sim.particles.id[i]);
+  MPI_Allreduce(&local, &next_id_, 1, MPI_INT64_T, MPI_MAX, sim.domain.comm);
+  ++next_id_;
+  if (!sim.restored) top_up(sim);
+}
+
+void Inlet::end_of_step(Simulation& sim) {
+  if (sim.step_count % every_ == 0) top_up(sim);
+}
+
+void Inlet::top_up(Simulation& sim) {
+  const ChannelConfig& ch = cfg_.channel;
+  ParticleStore& p = sim.particles;
+  const Species& sp = cfg_.species[cfg_.init_species];
+  const double amax = sp.radius_max, x0 = ch.inlet_x - 0.5 * ch.inlet_length, x1 = x0 + ch.inlet_length;
+  const double z0 = cfg_.lo[2], z1 = cfg_.hi[2];
+
+  // Particles that a candidate could touch, from every rank, in id order.
+  std::vector<double> mine;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.x[i][0] > x0 - 2 * amax && p.x[i][0] < x1 + 2 * amax)
+      mine.insert(mine.end(), {double(p.id[i]), p.x[i][0], p.x[i][1], p.x[i][2], p.radius[i]});
+  int n = static_cast<int>(mine.size());
+  std::vector<int> counts(sim.domain.nranks), displ(sim.domain.nranks, 0);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, sim.domain.comm);
+  for (int r = 1; r < sim.domain.nranks; ++r) displ[r] = displ[r - 1] + counts[r - 1];
+  std::vector<double> all(displ.back() + counts.back());
+  MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displ.data(), MPI_DOUBLE, sim.domain.comm);
+  std::vector<Nearby> near;
+  for (std::size_t k = 0; k < all.size(); k += 5)
+    near.push_back({static_cast<std::int64_t>(all[k]), all[k + 1], all[k + 2], all[k + 3], all[k + 4]});
+  std::sort(near.begin(), near.end(), [](const Nearby& a, const Nearby& b) { return a.id < b.id; });
+
+  auto volume = [](double a) { return 4.0 / 3.0 * std::numbers::pi * a * a * a; };
+  double present = 0;
+  for (const auto& q : near)
+    if (q.x >= x0 && q.x < x1) present += volume(q.a);
+  // Zone volume: the channel's cross-section integrated over the zone (midpoint rule).
+  double zone = 0;
+  for (int k = 0; k < 64; ++k) {
+    const double x = x0 + (k + 0.5) * ch.inlet_length / 64;
+    zone += (geo_.upper_y(x) - geo_.lower_y(x)) * ch.inlet_length / 64;
+  }
+  zone *= z1 - z0;
+  const double target = ch.inlet_fraction * zone;
+
+  Random rng(cfg_.seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(sim.step_count) + 1);
+  std::vector<Nearby> added;
+  int attempts = 0;
+  while (attempts < ch.inlet_attempts) {
+    const double a = sp.radius_min == sp.radius_max ? sp.radius_min : rng.uniform(sp.radius_min, sp.radius_max);
+    if (present + 0.5 * volume(a) > target) break;  // closest to the target
+    ++attempts;
+    const double x = rng.uniform(x0, x1);
+    const double y = rng.uniform(geo_.lower_y(x) + a, geo_.upper_y(x) - a), z = rng.uniform(z0 + a, z1 - a);
+    if (geo_.clearance(x, y) < a) continue;
+    auto clear = [&](const Nearby& q) {
+      const double dx = q.x - x, dy = q.y - y, dz = q.z - z;
+      return dx * dx + dy * dy + dz * dz >= (q.a + a) * (q.a + a);
+    };
+    if (!std::all_of(near.begin(), near.end(), clear) || !std::all_of(added.begin(), added.end(), clear)) continue;
+    added.push_back({next_id_++, x, y, z, a});
+    present += volume(a);
+  }
+  if (attempts >= ch.inlet_attempts) ++short_;
+  if (added.empty()) return;
+
+  // The owner of each new particle adds it; then every rank rebuilds (collective).
+  const StokesDrag* drag = nullptr;
+  for (const auto& m : sim.modules)
+    if (auto* d = dynamic_cast<const StokesDrag*>(m.get())) drag = d;
+  p.resize(p.nlocal);  // drop ghosts: new owned particles go before them
+  for (const auto& q : added) {
+    const Vec3 x(q.x, q.y, q.z);
+    if (sim.domain.owner(x[sim.domain.axis]) != sim.domain.rank) continue;
+    const Vec3 v = drag ? drag->flow().velocity(x) : Vec3::Zero();
+    p.add(q.id, cfg_.init_species, q.a, sp.density * volume(q.a), x, v);
+  }
+  p.nlocal = p.size();
+  inserted_ += static_cast<long>(added.size());
+  sim.rebuild();
+}
+
+}  // namespace cassini

@@ -1,0 +1,50 @@
+#include "physics/StokesDrag.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/Simulation.hpp"
+
+namespace cassini {
+
+StokesDrag::StokesDrag(const Config& cfg, const ChannelGeometry& geo)
+    : cfg_(cfg), voidage_(cfg.channel.voidage), viscosity_(cfg.channel.viscosity),
+      phi_field_(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], cfg.hi[2] - cfg.lo[2], cfg.channel.phi_width) {}
+
+double StokesDrag::voidage(double phi) const {
+  phi = std::min(phi, 0.7);  // beyond random close packing the correlations are meaningless
+  if (voidage_ == "thesis") return 2 * 5.34 * phi / ((1 - phi) * (1 - phi));
+  if (voidage_ == "stokes") return 1.0;
+  const double s = 1 - phi;
+  return 10 * phi / (s * s) + s * s * (1 + 1.5 * std::sqrt(phi));
+}
+
+void StokesDrag::setup(Simulation& sim) {
+  flow_ = std::make_unique<FlowField>(cfg_, sim.domain.comm);
+  refresh_every_ = std::max(1L, std::lround(cfg_.channel.phi_refresh / sim.dt));
+  refresh(sim);
+}
+
+void StokesDrag::refresh(Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  phi_field_.update(p, sim.domain.comm);
+  phi_.resize(p.nlocal);
+  for (std::size_t i = 0; i < p.nlocal; ++i) phi_[i] = phi_field_.at(p.x[i][0], p.x[i][1]);
+}
+
+void StokesDrag::post_rebuild(Simulation& sim) {
+  if (flow_) refresh(sim);  // slots were reordered (and particles may have come or gone)
+}
+
+void StokesDrag::force(Simulation& sim) {
+  if (sim.step_count % refresh_every_ == 0) refresh(sim);
+  ParticleStore& p = sim.particles;
+  const double dt = sim.dt, c = 6 * std::numbers::pi * viscosity_;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const double beta = c * p.radius[i] * voidage(phi_[i]) * p.inv_mass[i];
+    const double factor = -std::expm1(-beta * dt) / dt;  // -> beta for beta dt -> 0
+    p.f[i] += p.mass[i] * factor * (flow_->velocity(p.x[i]) - p.v[i]);
+  }
+}
+
+}  // namespace cassini

@@ -1,0 +1,216 @@
+#include "physics/StokesSolver.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+namespace cassini {
+namespace {
+
+using SpMat = Eigen::SparseMatrix<double>;
+using Triplet = Eigen::Triplet<double>;
+using Vec = Eigen::VectorXd;
+
+// One velocity component on its faces: which faces are unknowns, and their numbering.
+struct Component {
+  int axis;
+  int n[3];                  // face counts per direction
+  std::vector<int> unknown;  // face -> unknown index, or -1
+  std::vector<double> known; // prescribed value of faces that are not unknowns
+  int count = 0;
+  int index(int i, int j, int k) const { return (i * n[1] + j) * n[2] + k; }
+};
+
+}  // namespace
+
+std::vector<double> duct_profile(int ny, int nz, double dx, const std::vector<char>& fluid, double q) {
+  std::vector<int> id(ny * nz, -1);
+  int m = 0;
+  for (int c = 0; c < ny * nz; ++c)
+    if (fluid[c]) id[c] = m++;
+  std::vector<Triplet> t;
+  for (int j = 0; j < ny; ++j)
+    for (int k = 0; k < nz; ++k) {
+      const int r = id[j * nz + k];
+      if (r < 0) continue;
+      double diag = 0;
+      const int nb[4][2] = {{j - 1, k}, {j + 1, k}, {j, k - 1}, {j, k + 1}};
+      for (const auto& b : nb) {
+        const bool in = b[0] >= 0 && b[0] < ny && b[1] >= 0 && b[1] < nz && id[b[0] * nz + b[1]] >= 0;
+        if (in) { diag += 1; t.emplace_back(r, id[b[0] * nz + b[1]], -1.0); }
+        else diag += 2;  // wall half a cell away: ghost value -u
+      }
+      t.emplace_back(r, r, diag);
+    }
+  SpMat A(m, m);
+  A.setFromTriplets(t.begin(), t.end());
+  Eigen::SimplicialLDLT<SpMat> ldlt(A);
+  Vec u = ldlt.solve(Vec::Ones(m));
+  const double flux = u.sum() * dx * dx;
+  std::vector<double> out(ny * nz, 0.0);
+  for (int c = 0; c < ny * nz; ++c)
+    if (id[c] >= 0) out[c] = u[id[c]] * q / flux;
+  return out;
+}
+
+StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_iterations) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int nx = g.nx, ny = g.ny, nz = g.nz;
+  auto cell = [&](int i, int j, int k) { return (i * ny + j) * nz + k; };
+  auto fluid = [&](int i, int j, int k) {
+    return i >= 0 && i < nx && j >= 0 && j < ny && k >= 0 && k < nz && g.fluid[cell(i, j, k)];
+  };
+
+  // ---- unknowns: faces between two fluid cells; inflow/outflow faces are prescribed.
+  Component comp[3];
+  for (int a = 0; a < 3; ++a) {
+    Component& c = comp[a];
+    c.axis = a;
+    c.n[0] = nx + (a == 0);
+    c.n[1] = ny + (a == 1);
+    c.n[2] = nz + (a == 2);
+    c.unknown.assign(c.n[0] * c.n[1] * c.n[2], -1);
+    c.known.assign(c.unknown.size(), 0.0);
+    for (int i = 0; i < c.n[0]; ++i)
+      for (int j = 0; j < c.n[1]; ++j)
+        for (int k = 0; k < c.n[2]; ++k) {
+          int lo[3] = {i, j, k};
+          lo[a] -= 1;  // the cell on the low side of this face
+          const bool below = fluid(lo[0], lo[1], lo[2]), above = fluid(i, j, k);
+          if (a == 0 && (i == 0 || i == nx)) {  // inflow / outflow
+            if (below || above) c.known[c.index(i, j, k)] = g.inflow[j * nz + k];
+          } else if (below && above) {
+            c.unknown[c.index(i, j, k)] = c.count++;
+          }
+        }
+  }
+
+  // ---- velocity Laplacians (times eta / dx^2) and their right-hand sides.
+  const double scale = g.viscosity / (g.dx * g.dx);
+  SpMat A[3];
+  Vec b[3];
+  for (int a = 0; a < 3; ++a) {
+    Component& c = comp[a];
+    std::vector<Triplet> t;
+    b[a] = Vec::Zero(c.count);
+    for (int i = 0; i < c.n[0]; ++i)
+      for (int j = 0; j < c.n[1]; ++j)
+        for (int k = 0; k < c.n[2]; ++k) {
+          const int r = c.unknown[c.index(i, j, k)];
+          if (r < 0) continue;
+          double diag = 0;
+          for (int d = 0; d < 3; ++d)
+            for (int s = -1; s <= 1; s += 2) {
+              int q[3] = {i, j, k};
+              q[d] += s;
+              const bool in = q[d] >= 0 && q[d] < c.n[d];
+              const int nb = in ? c.unknown[c.index(q[0], q[1], q[2])] : -1;
+              if (nb >= 0) { diag += 1; t.emplace_back(r, nb, -scale); }
+              else if (d == a) { diag += 1; b[a][r] += scale * (in ? c.known[c.index(q[0], q[1], q[2])] : 0.0); }
+              else diag += 2;  // tangential neighbour behind a wall: no-slip half a cell away
+            }
+          t.emplace_back(r, r, diag * scale);
+        }
+    A[a].resize(c.count, c.count);
+    A[a].setFromTriplets(t.begin(), t.end());
+  }
+
+  // ---- divergence D (fluid cells x unknown faces) and its prescribed part.
+  std::vector<int> pid(nx * ny * nz, -1);
+  int np = 0;
+  for (int c = 0; c < nx * ny * nz; ++c)
+    if (g.fluid[c]) pid[c] = np++;
+  SpMat Dm[3];
+  Vec rhs_c = Vec::Zero(np);
+  for (int a = 0; a < 3; ++a) {
+    const Component& c = comp[a];
+    std::vector<Triplet> t;
+    for (int i = 0; i < nx; ++i)
+      for (int j = 0; j < ny; ++j)
+        for (int k = 0; k < nz; ++k) {
+          const int r = pid[cell(i, j, k)];
+          if (r < 0) continue;
+          int hi[3] = {i, j, k};
+          hi[a] += 1;
+          const int fl = c.index(i, j, k), fh = c.index(hi[0], hi[1], hi[2]);
+          for (auto [f, sign] : {std::pair{fl, -1.0}, std::pair{fh, 1.0}}) {
+            if (c.unknown[f] >= 0) t.emplace_back(r, c.unknown[f], sign / g.dx);
+            else rhs_c[r] -= sign * c.known[f] / g.dx;
+          }
+        }
+    Dm[a].resize(np, c.count);
+    Dm[a].setFromTriplets(t.begin(), t.end());
+  }
+
+  Eigen::SimplicialLLT<SpMat> chol[3];
+  for (int a = 0; a < 3; ++a) {
+    chol[a].compute(A[a]);
+    if (chol[a].info() != Eigen::Success) throw std::runtime_error("Stokes solve: velocity Laplacian not positive definite");
+  }
+  auto velocity = [&](const Vec& p, Vec* U) {  // U = A^-1 (b + D^T p)
+    for (int a = 0; a < 3; ++a) U[a] = chol[a].solve(b[a] + Dm[a].transpose() * p);
+  };
+  auto schur = [&](const Vec& p) {  // S p = D A^-1 D^T p
+    Vec out = Vec::Zero(np);
+    for (int a = 0; a < 3; ++a) out += Dm[a] * chol[a].solve(Dm[a].transpose() * p);
+    return out;
+  };
+
+  // ---- CG on S p = c - D A^-1 b; the pressure is fixed up to a constant (kept at mean 0).
+  Vec r = rhs_c;
+  {
+    Vec U0[3];
+    velocity(Vec::Zero(np), U0);
+    for (int a = 0; a < 3; ++a) r -= Dm[a] * U0[a];
+  }
+  r.array() -= r.mean();
+  Vec p = Vec::Zero(np), dir = r;
+  const double norm0 = std::max(r.norm(), 1e-300);
+  double rr = r.squaredNorm();
+  StokesSolution sol;
+  int it = 0;
+  for (; it < max_iterations && std::sqrt(rr) > tolerance * norm0; ++it) {
+    Vec Sd = schur(dir);
+    const double alpha = rr / dir.dot(Sd);
+    p += alpha * dir;
+    r -= alpha * Sd;
+    r.array() -= r.mean();
+    const double rr_new = r.squaredNorm();
+    dir = r + (rr_new / rr) * dir;
+    rr = rr_new;
+  }
+  sol.iterations = it;
+  sol.residual = std::sqrt(rr) / norm0;
+
+  Vec U[3];
+  velocity(p, U);
+  std::vector<double>* out[3] = {&sol.u, &sol.v, &sol.w};
+  for (int a = 0; a < 3; ++a) {
+    const Component& c = comp[a];
+    out[a]->assign(c.unknown.size(), 0.0);
+    for (std::size_t f = 0; f < c.unknown.size(); ++f)
+      (*out[a])[f] = c.unknown[f] >= 0 ? U[a][c.unknown[f]] : c.known[f];
+  }
+  sol.p.assign(nx * ny * nz, 0.0);
+  for (int c = 0; c < nx * ny * nz; ++c)
+    if (pid[c] >= 0) sol.p[c] = p[pid[c]];
+  // Discrete divergence of the final field, relative to the inflow scale.
+  double umax = 1e-300;
+  for (double x : g.inflow) umax = std::max(umax, std::abs(x));
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+      for (int k = 0; k < nz; ++k) {
+        if (!g.fluid[cell(i, j, k)]) continue;
+        const double div = sol.u[comp[0].index(i + 1, j, k)] - sol.u[comp[0].index(i, j, k)] +
+                           sol.v[comp[1].index(i, j + 1, k)] - sol.v[comp[1].index(i, j, k)] +
+                           sol.w[comp[2].index(i, j, k + 1)] - sol.w[comp[2].index(i, j, k)];
+        sol.max_divergence = std::max(sol.max_divergence, std::abs(div) / umax);
+      }
+  sol.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return sol;
+}
+
+}  // namespace cassini

@@ -1,0 +1,70 @@
+#include "physics/VolumeFraction.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace cassini {
+
+namespace {
+constexpr double kFixedPoint = 0x1.0p50;  // phi resolution 1e-15, room for sums up to 8192
+}
+
+VolumeFraction::VolumeFraction(const ChannelGeometry& geo, double x0, double x1, double y0, double y1, double height,
+                               double width)
+    : geo_(geo), x0_(x0), y0_(y0), h_(width / 4), height_(height), width_(width) {
+  nx_ = static_cast<int>(std::ceil((x1 - x0) / h_)) + 1;
+  ny_ = static_cast<int>(std::ceil((y1 - y0) / h_)) + 1;
+  reach_ = 12;  // 3 widths
+  fluid_.resize(std::size_t(nx_) * ny_);
+  for (int i = 0; i < nx_; ++i)
+    for (int j = 0; j < ny_; ++j) fluid_[i * ny_ + j] = geo.inside(x0_ + i * h_, y0_ + j * h_);
+  phi_.assign(fluid_.size(), 0.0);
+  sum_.assign(fluid_.size(), 0);
+  total_ = sum_;
+}
+
+template <class F>
+void VolumeFraction::for_nodes(double x, double y, F&& f) const {
+  const int ci = static_cast<int>(std::lround((x - x0_) / h_)), cj = static_cast<int>(std::lround((y - y0_) / h_));
+  scratch_.clear();
+  double norm = 0;
+  const double inv = 1 / (2 * width_ * width_), cut2 = 9 * width_ * width_;
+  for (int i = std::max(0, ci - reach_); i <= std::min(nx_ - 1, ci + reach_); ++i)
+    for (int j = std::max(0, cj - reach_); j <= std::min(ny_ - 1, cj + reach_); ++j) {
+      const int n = i * ny_ + j;
+      if (!fluid_[n]) continue;
+      const double dx = x0_ + i * h_ - x, dy = y0_ + j * h_ - y, r2 = dx * dx + dy * dy;
+      if (r2 > cut2) continue;
+      const double w = std::exp(-r2 * inv);
+      scratch_.emplace_back(n, w);
+      norm += w;
+    }
+  if (norm > 0)
+    for (const auto& [n, w] : scratch_) f(n, w / norm);
+}
+
+void VolumeFraction::update(const ParticleStore& p, MPI_Comm comm) {
+  std::fill(sum_.begin(), sum_.end(), 0);
+  const double per_area = 1 / (h_ * h_ * height_);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const double vol = 4.0 / 3.0 * std::numbers::pi * p.radius[i] * p.radius[i] * p.radius[i];
+    for_nodes(p.x[i][0], p.x[i][1],
+              [&](int n, double w) { sum_[n] += static_cast<std::int64_t>(std::llround(vol * w * per_area * kFixedPoint)); });
+  }
+  MPI_Allreduce(sum_.data(), total_.data(), static_cast<int>(sum_.size()), MPI_INT64_T, MPI_SUM, comm);
+  for (std::size_t n = 0; n < phi_.size(); ++n) phi_[n] = total_[n] / kFixedPoint;
+}
+
+double VolumeFraction::at(double x, double y) const {
+  double phi = 0;
+  for_nodes(x, y, [&](int n, double w) { phi += w * phi_[n]; });
+  return phi;
+}
+
+double VolumeFraction::integral() const {
+  double s = 0;
+  for (double v : phi_) s += v;
+  return s * h_ * h_ * height_;
+}
+
+}  // namespace cassini

@@ -1,0 +1,42 @@
+#pragma once
+// The local solid volume fraction phi that the drag's voidage function needs, coarse-grained
+// over the channel (spec section 3: Gaussian, width 100 um). The channel is one particle
+// high, so phi is depth-averaged: a 2D field over (x, y) on nodes spaced width/4 inside the
+// fluid. Each particle spreads its volume over the fluid nodes within 3 widths with Gaussian
+// weights normalised to 1 on those nodes (so walls do not swallow volume and the field
+// integrates to the particles' volume exactly); its own phi is the same weighted mean of the
+// node values. Node sums are accumulated in 64-bit fixed point across ranks: integer sums do
+// not depend on the order, so phi is bitwise the same on any number of ranks.
+#include <cstdint>
+#include <vector>
+
+#include <mpi.h>
+
+#include "core/ParticleStore.hpp"
+#include "physics/ChannelGeometry.hpp"
+
+namespace cassini {
+
+class VolumeFraction {
+ public:
+  VolumeFraction(const ChannelGeometry& geo, double x0, double x1, double y0, double y1, double height, double width);
+  // Recomputes the node field from the owned particles of every rank (collective).
+  void update(const ParticleStore& p, MPI_Comm comm);
+  // phi seen by a particle at (x, y): its kernel's mean of the node field.
+  double at(double x, double y) const;
+  double node_spacing() const { return h_; }
+  // Sum of phi * node area * height over the nodes: the particles' total volume.
+  double integral() const;
+
+ private:
+  template <class F> void for_nodes(double x, double y, F&& f) const;  // f(node, normalised weight)
+  const ChannelGeometry& geo_;
+  double x0_, y0_, h_, height_, width_;
+  int nx_, ny_, reach_;
+  std::vector<char> fluid_;
+  std::vector<double> phi_;
+  std::vector<std::int64_t> sum_, total_;
+  mutable std::vector<std::pair<int, double>> scratch_;
+};
+
+}  // namespace cassini
