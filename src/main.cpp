@@ -10,6 +10,7 @@
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
 #include "core/Simulation.hpp"
+#include "core/Ensemble.hpp"
 #include "io/RunOutput.hpp"
 #include "io/Snapshot.hpp"
 #include "physics/StokesDrag.hpp"
@@ -33,6 +34,11 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_dir, "output directory (default runs/<case name>)");
   app.add_flag("--force", force, "replace an existing output directory");
   app.add_option("--restart", restart, "continue from a snapshot file (snap_<step>.h5md) of an earlier run");
+  int ensemble = 0;
+  app.add_option("--ensemble", ensemble,
+                 "run N independent copies with seeds seed, seed+1, ...; each rank runs whole simulations "
+                 "(clogging statistics); writes ensemble.csv")
+      ->check(CLI::PositiveNumber);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -54,6 +60,14 @@ int main(int argc, char** argv) {
     out.write_text("case.toml", resolved.str() + "\n");
     out.case_text = resolved.str();
 
+    if (ensemble > 0) {
+      if (!restart.empty()) throw ConfigError("--ensemble and --restart cannot be combined");
+      out.log("cassini: " + file + ": ensemble of " + std::to_string(ensemble) + " runs on " + std::to_string(nranks) +
+              " rank(s), one whole run per rank at a time");
+      run_ensemble(cfg, ensemble, out);
+      MPI_Finalize();
+      return 0;
+    }
     Simulation sim(cfg, MPI_COMM_WORLD);
     if (!restart.empty()) read_snapshot(sim, restart);
     sim.setup();

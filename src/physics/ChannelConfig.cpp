@@ -101,7 +101,7 @@ void read_channel_config(CaseFile& f, Config& c) {
   if (ch.voidage != "beetstra" && ch.voidage != "thesis" && ch.voidage != "stokes")
     f.fail("drag.voidage", "\"beetstra\" (default, f -> 1 when dilute), \"thesis\" (2 k phi/(1-phi)^2) or \"stokes\" (f = 1)");
   ch.phi_width = positive(f, "drag.width", 100e-6);
-  ch.phi_refresh = positive(f, "drag.refresh", 1e-4);
+  ch.phi_refresh = positive(f, "drag.refresh", 1e-3);
 
   // [inlet]
   ch.inlet_length = positive(f, "inlet.length", D);

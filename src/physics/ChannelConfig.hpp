@@ -32,7 +32,7 @@ struct ChannelConfig {
   // [drag]
   std::string voidage = "beetstra";  // beetstra | thesis | stokes
   double phi_width = 100e-6;         // Gaussian coarse-graining width for phi
-  double phi_refresh = 1e-4;         // simulated time between phi updates
+  double phi_refresh = 1e-3;         // simulated time between phi updates
 
   // [inlet]
   double inlet_x = 0;           // centre of the insertion zone

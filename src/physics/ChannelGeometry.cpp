@@ -28,7 +28,8 @@ void ChannelGeometry::add_wall(const std::vector<Point2>& line, double side) {
     // Normal towards the fluid: the tangent turned by -90 deg (upper wall) or +90 deg (lower).
     const double nx = side < 0 ? ty : -ty, ny = side < 0 ? -tx : tx;
     // The outline's end segments continue beyond the domain: no end there.
-    faces_.push_back({line[k][0], line[k][1], tx, ty, len, nx, ny, k == 0, k == n - 1});
+    const double xmin = k == 0 ? -1e300 : line[k][0], xmax = k == n - 1 ? 1e300 : line[k + 1][0];
+    faces_.push_back({line[k][0], line[k][1], tx, ty, len, nx, ny, k == 0, k == n - 1, xmin, xmax});
   }
   for (int k = 1; k < n; ++k) vertices_.push_back({line[k][0], line[k][1], first + k - 1, first + k});
 }
@@ -37,6 +38,7 @@ void ChannelGeometry::contacts(double x, double y, double reach, std::vector<Wal
   const int nf = static_cast<int>(faces_.size());
   for (int k = 0; k < nf; ++k) {
     const Face& f = faces_[k];
+    if (x < f.xmin - reach || x > f.xmax + reach) continue;  // cheap reject: most faces are far
     const double px = x - f.x0, py = y - f.y0;
     const double t = px * f.tx + py * f.ty;
     if ((t < 0 && !f.open0) || (t > f.len && !f.open1)) continue;  // the vertex's business

@@ -32,7 +32,7 @@ class ChannelGeometry {
   void contacts(double x, double y, double reach, std::vector<WallContact>& out) const;
 
  private:
-  struct Face { double x0, y0, tx, ty, len, nx, ny; bool open0, open1; };
+  struct Face { double x0, y0, tx, ty, len, nx, ny; bool open0, open1; double xmin, xmax; };
   struct Vertex { double x, y; int before, after; };  // faces on either side
   static double interpolate(const std::vector<Point2>& line, double x);
   void add_wall(const std::vector<Point2>& line, double side);

@@ -26,10 +26,17 @@ void StokesDrag::setup(Simulation& sim) {
 }
 
 void StokesDrag::refresh(Simulation& sim) {
+  // phi, and with it the relaxation factor, is held between refreshes: compute it once here.
   const ParticleStore& p = sim.particles;
   phi_field_.update(p, sim.domain.comm);
   phi_.resize(p.nlocal);
-  for (std::size_t i = 0; i < p.nlocal; ++i) phi_[i] = phi_field_.at(p.x[i][0], p.x[i][1]);
+  factor_.resize(p.nlocal);
+  const double c = 6 * std::numbers::pi * viscosity_;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    phi_[i] = phi_field_.at(p.x[i][0], p.x[i][1]);
+    const double beta = c * p.radius[i] * voidage(phi_[i]) * p.inv_mass[i];
+    factor_[i] = -std::expm1(-beta * sim.dt) / sim.dt;  // -> beta for beta dt -> 0
+  }
 }
 
 void StokesDrag::post_rebuild(Simulation& sim) {
@@ -39,12 +46,7 @@ void StokesDrag::post_rebuild(Simulation& sim) {
 void StokesDrag::force(Simulation& sim) {
   if (sim.step_count % refresh_every_ == 0) refresh(sim);
   ParticleStore& p = sim.particles;
-  const double dt = sim.dt, c = 6 * std::numbers::pi * viscosity_;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const double beta = c * p.radius[i] * voidage(phi_[i]) * p.inv_mass[i];
-    const double factor = -std::expm1(-beta * dt) / dt;  // -> beta for beta dt -> 0
-    p.f[i] += p.mass[i] * factor * (flow_->velocity(p.x[i]) - p.v[i]);
-  }
+  for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * factor_[i] * (flow_->velocity(p.x[i]) - p.v[i]);
 }
 
 }  // namespace cassini

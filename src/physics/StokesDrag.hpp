@@ -43,7 +43,8 @@ class StokesDrag : public Module {
   std::unique_ptr<FlowField> flow_;
   VolumeFraction phi_field_;
   long refresh_every_ = 1;
-  std::vector<double> phi_;  // per owned particle, in the current slot order
+  std::vector<double> phi_;     // per owned particle, in the current slot order
+  std::vector<double> factor_;  // (1 - exp(-beta dt)) / dt per owned particle
 };
 
 }  // namespace cassini

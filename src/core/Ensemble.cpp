@@ -1,0 +1,105 @@
+#include "core/Ensemble.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <mpi.h>
+
+#include "core/Simulation.hpp"
+#include "io/RunOutput.hpp"
+#include "physics/ChannelWalls.hpp"
+#include "physics/ContactForces.hpp"
+#include "physics/FlowField.hpp"
+#include "physics/Inlet.hpp"
+
+namespace cassini {
+
+namespace {
+std::string result(const Simulation& sim, const std::string& key) {
+  for (const auto& [k, v] : sim.results)
+    if (k == key) return v;
+  return "";
+}
+}  // namespace
+
+void run_ensemble(const Config& base, int runs, RunOutput& out) {
+  int rank = 0, nranks = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &nranks);
+  // Solve (or load) the flow once for everybody before the runs read the cache.
+  if (base.has_module("drag")) FlowField warm(base, MPI_COMM_WORLD);
+
+  const std::string header =
+      "run,seed,D_over_d,clogged,escapees,clog_time,simulated_time,inserted,max_overlap_over_radius,wall_seconds,ended";
+  const std::string part = out.dir() + "/ensemble.rank" + std::to_string(rank) + ".csv";
+  std::ofstream rows(part);
+  rows << header << "\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  const double d = 2 * base.species[base.init_species].radius_max;
+  int done = 0;
+  for (int k = rank; k < runs; k += nranks) {
+    Config cfg = base;
+    cfg.seed = base.seed + static_cast<std::uint64_t>(k);
+    const auto r0 = std::chrono::steady_clock::now();
+    Simulation sim(cfg, MPI_COMM_SELF);
+    sim.setup();
+    std::string ended = sim.finish_reason;
+    double worst = 0;
+    try {
+      sim.run();
+      if (!sim.finished) ended = "time limit";
+      else ended = sim.finish_reason;
+    } catch (const GuardError& e) {
+      ended = std::string("guard: ") + e.what();
+      std::replace(ended.begin(), ended.end(), ',', ';');
+      std::replace(ended.begin(), ended.end(), '\n', ' ');
+    }
+    for (const auto& m : sim.modules)
+      if (auto* w = dynamic_cast<const ChannelWalls*>(m.get())) worst = std::max(worst, w->max_overlap_fraction());
+    if (sim.contact) worst = std::max(worst, sim.contact->max_overlap_fraction());
+    long inserted = 0;
+    for (const auto& m : sim.modules)
+      if (auto* in = dynamic_cast<const Inlet*>(m.get())) inserted = in->inserted();
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
+    std::string ct = result(sim, "clog_time");
+    rows << k << "," << cfg.seed << "," << cfg.channel.neck_width / d << "," << (result(sim, "clogged") == "true" ? 1 : 0)
+         << "," << result(sim, "escapees") << "," << (ct == "null" ? "" : ct) << "," << sim.time << "," << inserted << ","
+         << worst << "," << wall << "," << ended << "\n";
+    rows.flush();
+    ++done;
+    if (rank == 0) {
+      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const int mine = (runs - rank + nranks - 1) / nranks;
+      std::ostringstream os;
+      os.precision(3);
+      os << "run " << k << " (seed " << cfg.seed << "): " << ended << ", s = " << result(sim, "escapees") << ", "
+         << wall << " s;  rank 0 " << done << "/" << mine << ", ETA " << el / done * (mine - done) << " s";
+      out.log(os.str());
+    }
+  }
+  rows.close();
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) {
+    std::map<int, std::string> byrun;
+    for (int r = 0; r < nranks; ++r) {
+      std::ifstream in(out.dir() + "/ensemble.rank" + std::to_string(r) + ".csv");
+      std::string line;
+      std::getline(in, line);
+      while (std::getline(in, line))
+        if (!line.empty()) byrun[std::stoi(line.substr(0, line.find(',')))] = line;
+    }
+    std::ofstream all(out.dir() + "/ensemble.csv");
+    all << header << "\n";
+    for (const auto& [k, line] : byrun) all << line << "\n";
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::ostringstream os;
+    os << "ensemble: " << byrun.size() << " runs on " << nranks << " rank(s) in " << el << " s = " << 3600.0 * byrun.size() / el
+       << " runs per hour -> " << out.dir() << "/ensemble.csv";
+    out.log(os.str());
+  }
+}
+
+}  // namespace cassini
