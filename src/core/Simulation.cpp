@@ -89,6 +89,12 @@ void Simulation::rebuild() {
     }
     imbalance = domain.balance(coord, cost);
   }
+  if (!incoming.empty()) {
+    particles.resize(particles.nlocal);  // drop ghosts: owned particles come first
+    for (const auto& q : incoming) particles.add(q.id, q.species, q.radius, q.mass, q.x, q.v);
+    particles.nlocal = particles.size();
+    incoming.clear();
+  }
   halo.migrate(particles, history);
   particles.permute_local(NeighborList::spatial_order(particles, domain, range));
   halo.build_ghosts(particles);

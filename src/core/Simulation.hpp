@@ -59,6 +59,11 @@ class Simulation {
   HaloExchange halo;
   std::vector<HistoryEntry> history;  // tangential springs in transit during a rebuild
 
+  // Particles to add at the next rebuild (an inlet): added after the pre_rebuild hooks have
+  // saved the contact history, so that no spring is lost.
+  struct NewParticle { std::int64_t id; int species; double radius, mass; Vec3 x, v; };
+  std::vector<NewParticle> incoming;
+
   // Set before the initial_integrate stage: the integrator measures, while it drifts, the
   // largest squared displacement since the last rebuild relative to the imposed flow
   // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).

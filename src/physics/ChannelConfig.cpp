@@ -94,7 +94,8 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.series_terms = static_cast<int>(f.integer("flow.series_terms", 40));
   if (ch.series_terms < 1) f.fail("flow.series_terms", "a positive number of odd terms");
   ch.cache_dir = f.string("flow.cache", "flow-cache");
-  if (!ch.cache_dir.empty() && ch.cache_dir[0] != '/') ch.cache_dir = f.directory() + "/" + ch.cache_dir;
+  if (!ch.cache_dir.empty() && ch.cache_dir[0] != '/' && !f.directory().empty())
+    ch.cache_dir = f.directory() + "/" + ch.cache_dir;
 
   // [drag]
   ch.voidage = f.string("drag.voidage", "beetstra");

@@ -91,14 +91,12 @@ void Inlet::top_up(Simulation& sim) {
   const StokesDrag* drag = nullptr;
   for (const auto& m : sim.modules)
     if (auto* d = dynamic_cast<const StokesDrag*>(m.get())) drag = d;
-  p.resize(p.nlocal);  // drop ghosts: new owned particles go before them
   for (const auto& q : added) {
     const Vec3 x(q.x, q.y, q.z);
     if (sim.domain.owner(x[sim.domain.axis]) != sim.domain.rank) continue;
     const Vec3 v = drag ? drag->flow().velocity(x) : Vec3::Zero();
-    p.add(q.id, cfg_.init_species, q.a, sp.density * volume(q.a), x, v);
+    sim.incoming.push_back({q.id, cfg_.init_species, q.a, sp.density * volume(q.a), x, v});
   }
-  p.nlocal = p.size();
   inserted_ += static_cast<long>(added.size());
   sim.rebuild();
 }

@@ -28,7 +28,7 @@ void PlaneWalls::force(Simulation& sim) {
     for (int w = 0; w < nw; ++w) {
       const Plane& pl = planes_[w];
       const double s = (p.x[i] - pl.point).dot(pl.normal);
-      Vec3* xi = fric ? &p.wall_xi[i * nw + w] : nullptr;
+      Vec3* xi = fric ? &p.wall_xi[i * p.walls + w] : nullptr;  // planes take the first slots
       if (s >= a) {
         if (xi) xi->setZero();
         continue;

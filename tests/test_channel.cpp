@@ -1,0 +1,175 @@
+// The clogging scene's pieces against independent answers: the duct series' flow rate, the
+// Stokes solve's mass conservation and far field, drag relaxation, a bead held in a corner
+// by drag, and the clog criterion.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "ChannelScene.hpp"
+#include "TestScene.hpp"
+#include "physics/ChannelWalls.hpp"
+#include "physics/ClogMonitor.hpp"
+#include "physics/DuctFlow.hpp"
+#include "physics/FlowField.hpp"
+#include "physics/Inlet.hpp"
+#include "physics/StokesDrag.hpp"
+
+using namespace cassini;
+using namespace cassini::test;
+
+namespace {
+
+template <class M>
+M* find_module(Simulation& sim) {
+  for (auto& m : sim.modules)
+    if (auto* p = dynamic_cast<M*>(m.get())) return p;
+  return nullptr;
+}
+
+// Mean of the series over the cross-section by the midpoint rule on a fine grid.
+double series_mean(const DuctFlow& d, double w, double h, int n) {
+  double s = 0;
+  for (int i = 0; i < 4 * n; ++i)
+    for (int k = 0; k < n; ++k) s += d.velocity(-0.5 * w + (i + 0.5) * w / (4 * n), (k + 0.5) * h / n);
+  return s / (4.0 * n * n);
+}
+
+}  // namespace
+
+TEST(DuctSeries, FlowRateIsTheRequestedMeanAndMatchesThesisApproximation) {
+  const double w = 4e-4, h = 1e-4, v = 1.47e-3;
+  const DuctFlow d(w, h, v, 40);
+  EXPECT_NEAR(series_mean(d, w, h, 200), v, 2e-4 * v);  // midpoint-rule error only
+  // Thesis (7.22): dp/L = 12 eta v / (h^2 (1 - 0.63 h/w)); tanh(2 pi) = 0.99999 and 0.63 vs
+  // 192/pi^5 = 0.6302 make it good to 1e-4.
+  const double approx = 12 * v / (h * h * (1 - 0.63 * h / w));
+  EXPECT_NEAR(d.pressure_gradient_over_viscosity(), approx, 1e-4 * approx);
+  // No slip on the walls.
+  EXPECT_NEAR(d.velocity(0.5 * w - 1e-12, 0.5 * h), 0.0, 1e-6 * v);
+}
+
+TEST(StokesFlow, ConservesFlowRateAndApproachesTheDuctSeries) {
+  const double w = 4e-4, h = 1e-4, v = 1.47e-3;
+  const DuctFlow d(w, h, v, 40);
+  const double centre_exact = d.velocity(0, 0.5 * h) / series_mean(d, w, h, 200);
+  double previous = 1, previous_centre = 1;
+  for (int res : {4, 8}) {
+    const Config cfg = config_from(channel_case(), {"flow.resolution=" + std::to_string(res)});
+    const FlowField f(cfg, MPI_COMM_WORLD);
+    const FlowReport& r = f.report();
+    // Discrete continuity: the same flow rate through every cross-section, 4x the far-field
+    // mean velocity through the neck (a quarter of the width).
+    EXPECT_LT(r.flux_error, 1e-8) << res;
+    EXPECT_NEAR(r.neck_mean_over_mean, 4.0, 1e-8) << res;
+    EXPECT_LT(r.max_divergence, 1e-8) << res;
+    // Second order: doubling the resolution cuts the far-field error about 4x.
+    EXPECT_LT(r.far_field_error, previous / 3) << res;
+    previous = r.far_field_error;
+    // The centre-line node averages four faces around the maximum: also second order.
+    const double centre_error = std::abs(r.centre_over_mean / centre_exact - 1);
+    EXPECT_LT(centre_error, previous_centre / 3) << res;
+    previous_centre = centre_error;
+  }
+  EXPECT_LT(previous, 0.02);
+  EXPECT_LT(previous_centre, 0.04);
+}
+
+TEST(StokesDrag, IsolatedBeadRelaxesToTheFluidWithTheStokesTime) {
+  auto sim = make_sim(channel_case(R"(["channel", "drag"])"), {"drag.voidage=\"stokes\""});
+  const double a = 3.3333e-5, m = 1050 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  sim->particles.add(0, 0, a, m, Vec3(-5e-4, 0, 5e-5), Vec3::Zero());
+  sim->setup();
+  const double tau = m / (6 * std::numbers::pi * 1.8e-3 * a);
+  const auto* drag = find_module<StokesDrag>(*sim);
+  const Vec3 u = drag->flow().velocity(Vec3(-5e-4, 0, 5e-5));
+  ASSERT_GT(u[0], 1e-3);
+  ASSERT_NEAR(u[1], 0.0, 1e-12);
+  const long steps = std::lround(2 * tau / sim->dt);
+  double worst = 0;
+  for (long s = 1; s <= steps; ++s) {
+    sim->step();
+    const double t = sim->time;
+    const double expected = u[0] * (1 - std::exp(-t / tau));
+    worst = std::max(worst, std::abs(sim->particles.v[0][0] - expected) / u[0]);
+  }
+  // The velocity is exact at half steps; at full steps it lags by beta dt / 2 at most.
+  EXPECT_LT(worst, sim->dt / tau);
+  EXPECT_GT(sim->particles.v[0][0], 0.8 * u[0]);
+}
+
+TEST(StokesDrag, VoidageFunctionsHaveTheirLimits) {
+  const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
+  ChannelGeometry geo(cfg.channel);
+  StokesDrag beetstra(cfg, geo);
+  EXPECT_NEAR(beetstra.voidage(0.0), 1.0, 1e-15);  // the dilute limit the thesis's form lacks
+  EXPECT_NEAR(beetstra.voidage(0.2), 10 * 0.2 / 0.64 + 0.64 * (1 + 1.5 * std::sqrt(0.2)), 1e-12);
+  const Config thesis = config_from(channel_case(R"(["channel", "drag"])"), {"drag.voidage=\"thesis\""});
+  StokesDrag t(thesis, geo);
+  EXPECT_EQ(t.voidage(0.0), 0.0);
+  EXPECT_NEAR(t.voidage(0.2), 2 * 5.34 * 0.2 / 0.64, 1e-12);
+}
+
+TEST(ChannelWalls, BeadPressedIntoTheNeckByDragComesToRestAtTheForceBalance) {
+  // A frictionless 80 um bead in front of a 60 um sharp neck rests on the neck's two vertical
+  // edges at y = +-30 um (the 45 deg faces end before its contact points would reach them).
+  // Equilibrium: the edges push along (x, -+30 um) / r with r = a - delta; x balance
+  // 2 N |x| / r = F_drag, delta = N / k with the wall's k = m (omega^2 + eta^2).
+  auto sim = make_sim(channel_case(R"(["contact", "channel", "drag"])"),
+                      {"channel.neck_width=6.0e-5", "drag.voidage=\"stokes\"", "species[0].radius=4.0e-5",
+                       "species[0].mu_s=0.0"});
+  const double a = 4e-5, m = 1050 * 4.0 / 3.0 * std::numbers::pi * a * a * a, half = 3e-5;
+  sim->particles.add(0, 0, a, m, Vec3(-8e-5, 0, 5e-5), Vec3::Zero());
+  sim->setup();
+  const auto* drag = find_module<StokesDrag>(*sim);
+  const double t_end = 0.08;
+  double x_mid = 0, v_max_late = 0, ke_first = -1, ke_max_late = 0;
+  while (sim->time < t_end) {
+    sim->step();
+    if (sim->time < 0.5 * t_end) continue;
+    const double ke = sim->kinetic_energy();
+    if (ke_first < 0) { ke_first = ke; x_mid = sim->particles.x[0][0]; }
+    ke_max_late = std::max(ke_max_late, ke);
+    v_max_late = std::max(v_max_late, sim->particles.v[0].norm());
+  }
+  const Vec3 x = sim->particles.x[0];
+  const Vec3 u = drag->flow().velocity(x);
+  const double fd = 6 * std::numbers::pi * 1.8e-3 * a * u[0];
+  const double tc = 1e-4, eta = -std::log(0.1) / tc, k = m * (std::pow(std::numbers::pi / tc, 2) + eta * eta);
+  double r = a, xe = 0, delta = 0;
+  for (int it = 0; it < 50; ++it) {  // fixed point of r = a - N(r)/k
+    xe = -std::sqrt(r * r - half * half);
+    delta = fd * r / (2 * std::abs(xe)) / k;
+    r = a - delta;
+  }
+  EXPECT_NEAR(x[0], xe, 0.05 * delta);
+  EXPECT_LT(std::abs(x[1]), 0.05 * delta) << "lateral flow at the centre line " << u[1];
+  EXPECT_LT(v_max_late, 1e-9);               // at rest: no jitter
+  EXPECT_LE(ke_max_late, ke_first * (1 + 1e-9) + 1e-30);  // no energy growth
+  EXPECT_LT(std::abs(x[0] - x_mid), 1e-12);  // and no creep
+}
+
+TEST(ClogMonitor, BeadsTooBigForTheNeckClogIt) {
+  auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=0.05", "time.end=2.0"});
+  sim->setup();
+  sim->run();
+  const auto* clog = find_module<ClogMonitor>(*sim);
+  EXPECT_TRUE(sim->finished);
+  EXPECT_TRUE(clog->clogged());
+  EXPECT_EQ(clog->escapees(), 0);
+  EXPECT_LT(sim->time, 2.0);
+}
+
+TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
+  auto sim = make_sim(channel_case(), {"species[0].radius=1.5e-5", "inlet.volume_fraction=0.05", "time.end=0.6",
+                                       "clog.window=0.2"});
+  sim->setup();
+  sim->run();
+  const auto* clog = find_module<ClogMonitor>(*sim);
+  const auto* inlet = find_module<Inlet>(*sim);
+  EXPECT_FALSE(sim->finished);
+  EXPECT_FALSE(clog->clogged());
+  EXPECT_GT(clog->escapees(), 5);
+  // Bookkeeping: every inserted bead is present or left through an open face.
+  EXPECT_EQ(inlet->inserted(), sim->total_particles() + sim->halo.removed);
+}
