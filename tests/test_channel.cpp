@@ -9,6 +9,7 @@
 #include "ChannelScene.hpp"
 #include "TestScene.hpp"
 #include "physics/ChannelWalls.hpp"
+#include "physics/ContactForces.hpp"
 #include "physics/ClogMonitor.hpp"
 #include "physics/DuctFlow.hpp"
 #include "physics/FlowField.hpp"
@@ -172,4 +173,26 @@ TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
   EXPECT_GT(clog->escapees(), 5);
   // Bookkeeping: every inserted bead is present or left through an open face.
   EXPECT_EQ(inlet->inserted(), sim->total_particles() + sim->halo.removed);
+}
+
+TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
+  // Beads wider than the neck pile up behind it under the drag (phi ~ 0.6, voidage ~ 40x) and
+  // must stay there, bounded, for the whole 1 s clog window: no guard trips (overlap < 20 %,
+  // finite state), overlaps stay small and nothing moves faster than the fluid.
+  auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=1.0", "time.end=3.0"});
+  sim->setup();
+  double worst_overlap = 0, fastest = 0;
+  while (!sim->finished && sim->time < 3.0) {
+    ASSERT_NO_THROW(sim->step());
+    if (sim->step_count % 1000) continue;
+    worst_overlap = std::max(worst_overlap, sim->contact->max_overlap_fraction());
+    for (auto& m : sim->modules)
+      if (auto* w = dynamic_cast<ChannelWalls*>(m.get())) worst_overlap = std::max(worst_overlap, w->max_overlap_fraction());
+    for (std::size_t i = 0; i < sim->particles.nlocal; ++i) fastest = std::max(fastest, sim->particles.v[i].norm());
+  }
+  const auto* clog = find_module<ClogMonitor>(*sim);
+  EXPECT_TRUE(clog->clogged());
+  EXPECT_GT(sim->total_particles(), 30);  // a real pile, not a lone bead
+  EXPECT_LT(worst_overlap, 0.05);
+  EXPECT_LT(fastest, 4 * 4 * 1.47e-3);    // below the neck's peak fluid speed
 }
