@@ -52,7 +52,7 @@ std::string cache_key(const Config& cfg, const SolveBox& b) {
   std::ostringstream os;
   os.precision(17);
   os << "stokes-v1 dx=" << b.dx << " x0=" << b.x0 << " y0=" << b.y0 << " z0=" << b.z0 << " n=" << b.nx << "," << b.ny
-     << "," << b.nz << " v=" << cfg.channel.mean_velocity << " upper=";
+     << "," << b.nz << " v=" << cfg.channel.mean_velocity << " terms=" << cfg.channel.series_terms << " upper=";
   for (const auto& p : cfg.channel.upper) os << p[0] << ":" << p[1] << ";";
   os << " lower=";
   for (const auto& p : cfg.channel.lower) os << p[0] << ":" << p[1] << ";";
