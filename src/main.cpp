@@ -77,18 +77,17 @@ int main(int argc, char** argv) {
          << sim.dt << " s, end = " << cfg.t_end << " s\nactive modules:";
     for (const auto& n : sim.module_names()) head << " [" << n << "]";
     out.log(head.str());
-    for (const auto& m : sim.modules)
-      if (auto* drag = dynamic_cast<const StokesDrag*>(m.get())) {
-        const FlowReport& r = drag->flow().report();
-        std::ostringstream os;
-        os << "flow field: " << drag->flow().cache_file() << (r.from_cache ? " (cached)" : " (solved now)")
-           << "\n  Stokes solve " << r.solve_seconds << " s, " << r.iterations << " CG iterations, residual "
-           << r.residual << ", max |div u| " << r.max_divergence << "\n  flow rate error over all cross-sections "
-           << r.flux_error << "; neck mean / far mean " << r.neck_mean_over_mean
-           << "; far field vs duct series (4 D upstream) " << r.far_field_error << " (L2); centre / mean "
-           << r.centre_over_mean;
-        out.log(os.str());
-      }
+    if (const auto* drag = sim.find<StokesDrag>()) {
+      const FlowReport& r = drag->flow().report();
+      std::ostringstream os;
+      os << "flow field: " << drag->flow().cache_file() << (r.from_cache ? " (cached)" : " (solved now)")
+         << "\n  Stokes solve " << r.solve_seconds << " s, " << r.iterations << " CG iterations, residual "
+         << r.residual << ", max |div u| " << r.max_divergence << "\n  flow rate error over all cross-sections "
+         << r.flux_error << "; neck mean / far mean " << r.neck_mean_over_mean
+         << "; far field vs duct series (4 D upstream) " << r.far_field_error << " (L2); centre / mean "
+         << r.centre_over_mean;
+      out.log(os.str());
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const long start = sim.step_count;
     try {

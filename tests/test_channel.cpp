@@ -21,13 +21,6 @@ using namespace cassini::test;
 
 namespace {
 
-template <class M>
-M* find_module(Simulation& sim) {
-  for (auto& m : sim.modules)
-    if (auto* p = dynamic_cast<M*>(m.get())) return p;
-  return nullptr;
-}
-
 // Mean of the series over the cross-section by the midpoint rule on a fine grid.
 double series_mean(const DuctFlow& d, double w, double h, int n) {
   double s = 0;
@@ -82,7 +75,7 @@ TEST(StokesDrag, IsolatedBeadRelaxesToTheFluidWithTheStokesTime) {
   sim->particles.add(0, 0, a, m, Vec3(-5e-4, 0, 5e-5), Vec3::Zero());
   sim->setup();
   const double tau = m / (6 * std::numbers::pi * 1.8e-3 * a);
-  const auto* drag = find_module<StokesDrag>(*sim);
+  const auto* drag = sim->find<StokesDrag>();
   const Vec3 u = drag->flow().velocity(Vec3(-5e-4, 0, 5e-5));
   ASSERT_GT(u[0], 1e-3);
   ASSERT_NEAR(u[1], 0.0, 1e-12);
@@ -122,7 +115,7 @@ TEST(ChannelWalls, BeadPressedIntoTheNeckByDragComesToRestAtTheForceBalance) {
   const double a = 4e-5, m = 1050 * 4.0 / 3.0 * std::numbers::pi * a * a * a, half = 3e-5;
   sim->particles.add(0, 0, a, m, Vec3(-8e-5, 0, 5e-5), Vec3::Zero());
   sim->setup();
-  const auto* drag = find_module<StokesDrag>(*sim);
+  const auto* drag = sim->find<StokesDrag>();
   const double t_end = 0.08;
   double x_mid = 0, v_max_late = 0, ke_first = -1, ke_max_late = 0;
   while (sim->time < t_end) {
@@ -154,7 +147,7 @@ TEST(ClogMonitor, BeadsTooBigForTheNeckClogIt) {
   auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=0.05", "time.end=2.0"});
   sim->setup();
   sim->run();
-  const auto* clog = find_module<ClogMonitor>(*sim);
+  const auto* clog = sim->find<ClogMonitor>();
   EXPECT_TRUE(sim->finished);
   EXPECT_TRUE(clog->clogged());
   EXPECT_EQ(clog->escapees(), 0);
@@ -166,8 +159,8 @@ TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
                                        "clog.window=0.2"});
   sim->setup();
   sim->run();
-  const auto* clog = find_module<ClogMonitor>(*sim);
-  const auto* inlet = find_module<Inlet>(*sim);
+  const auto* clog = sim->find<ClogMonitor>();
+  const auto* inlet = sim->find<Inlet>();
   EXPECT_FALSE(sim->finished);
   EXPECT_FALSE(clog->clogged());
   EXPECT_GT(clog->escapees(), 5);
@@ -186,11 +179,10 @@ TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
     ASSERT_NO_THROW(sim->step());
     if (sim->step_count % 1000) continue;
     worst_overlap = std::max(worst_overlap, sim->contact->max_overlap_fraction());
-    for (auto& m : sim->modules)
-      if (auto* w = dynamic_cast<ChannelWalls*>(m.get())) worst_overlap = std::max(worst_overlap, w->max_overlap_fraction());
+    worst_overlap = std::max(worst_overlap, sim->find<ChannelWalls>()->max_overlap_fraction());
     for (std::size_t i = 0; i < sim->particles.nlocal; ++i) fastest = std::max(fastest, sim->particles.v[i].norm());
   }
-  const auto* clog = find_module<ClogMonitor>(*sim);
+  const auto* clog = sim->find<ClogMonitor>();
   EXPECT_TRUE(clog->clogged());
   EXPECT_GT(sim->total_particles(), 30);  // a real pile, not a lone bead
   EXPECT_LT(worst_overlap, 0.05);

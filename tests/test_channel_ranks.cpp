@@ -22,8 +22,7 @@ TEST(ChannelRanks, OneAndTwoRanksAgreeBitwiseAndCountEveryBead) {
     auto sim = make_sim(channel_case(), over, comm);
     sim->setup();
     for (long s = 0; s < steps; ++s) sim->step();
-    for (auto& m : sim->modules)
-      if (auto* in = dynamic_cast<Inlet*>(m.get())) inserted = in->inserted();
+    inserted = sim->find<Inlet>()->inserted();
     present = sim->total_particles();
     long mine = sim->halo.removed;
     MPI_Allreduce(&mine, &removed, 1, MPI_LONG, MPI_SUM, comm);

@@ -57,12 +57,10 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
       std::replace(ended.begin(), ended.end(), ',', ';');
       std::replace(ended.begin(), ended.end(), '\n', ' ');
     }
-    for (const auto& m : sim.modules)
-      if (auto* w = dynamic_cast<const ChannelWalls*>(m.get())) worst = std::max(worst, w->max_overlap_fraction());
+    if (const auto* w = sim.find<ChannelWalls>()) worst = std::max(worst, w->max_overlap_fraction());
     if (sim.contact) worst = std::max(worst, sim.contact->max_overlap_fraction());
-    long inserted = 0;
-    for (const auto& m : sim.modules)
-      if (auto* in = dynamic_cast<const Inlet*>(m.get())) inserted = in->inserted();
+    const auto* inlet = sim.find<Inlet>();
+    const long inserted = inlet ? inlet->inserted() : 0;
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
     std::string ct = result(sim, "clog_time");
     rows << k << "," << cfg.seed << "," << cfg.channel.neck_width / d << "," << (result(sim, "clogged") == "true" ? 1 : 0)

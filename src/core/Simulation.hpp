@@ -86,6 +86,13 @@ class Simulation {
   }
 
   std::vector<std::string> module_names() const;
+  // The active module of type M, or null when the scene does not use it.
+  template <class M>
+  M* find() const {
+    for (const auto& m : modules)
+      if (auto* p = dynamic_cast<M*>(m.get())) return p;
+    return nullptr;
+  }
 
   // A module may end the run early (collectively: every rank calls it on the same step), and
   // publish results for summary.json (values are JSON text).

@@ -6,6 +6,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
+#include "physics/ChannelGeometry.hpp"
 
 namespace cassini {
 namespace {
@@ -22,16 +23,6 @@ std::vector<Point2> polyline(CaseFile& f, const std::string& key) {
   for (std::size_t k = 1; k < pts.size(); ++k)
     if (!(pts[k][0] > pts[k - 1][0])) f.fail(key, "points with strictly increasing x");
   return pts;
-}
-
-double interpolate(const std::vector<Point2>& line, double x) {
-  if (x <= line.front()[0]) return line.front()[1];
-  for (std::size_t k = 1; k < line.size(); ++k)
-    if (x <= line[k][0]) {
-      const double t = (x - line[k - 1][0]) / (line[k][0] - line[k - 1][0]);
-      return line[k - 1][1] + t * (line[k][1] - line[k - 1][1]);
-    }
-  return line.back()[1];
 }
 
 }  // namespace
@@ -76,7 +67,7 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.neck_width = 1e300;
   for (double x : xs) {
     if (x < c.lo[0] || x > c.hi[0]) continue;
-    const double gap = interpolate(ch.upper, x) - interpolate(ch.lower, x);
+    const double gap = ChannelGeometry::interpolate(ch.upper, x) - ChannelGeometry::interpolate(ch.lower, x);
     if (gap < ch.neck_width - 1e-12 * half) { ch.neck_width = gap; ch.neck_x0 = ch.neck_x1 = x; }
     else if (gap < ch.neck_width + 1e-12 * half) ch.neck_x1 = std::max(ch.neck_x1, x);
   }

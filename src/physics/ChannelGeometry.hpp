@@ -22,6 +22,8 @@ class ChannelGeometry {
  public:
   explicit ChannelGeometry(const ChannelConfig& c);
 
+  // y of a polyline (x increasing) at x; constant beyond its ends.
+  static double interpolate(const std::vector<Point2>& line, double x);
   double upper_y(double x) const { return interpolate(upper_, x); }
   double lower_y(double x) const { return interpolate(lower_, x); }
   bool inside(double x, double y) const { return y < upper_y(x) && y > lower_y(x); }
@@ -34,7 +36,6 @@ class ChannelGeometry {
  private:
   struct Face { double x0, y0, tx, ty, len, nx, ny; bool open0, open1; double xmin, xmax; };
   struct Vertex { double x, y; int before, after; };  // faces on either side
-  static double interpolate(const std::vector<Point2>& line, double x);
   void add_wall(const std::vector<Point2>& line, double side);
   std::vector<Point2> upper_, lower_;
   std::vector<Face> faces_;

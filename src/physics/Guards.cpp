@@ -13,8 +13,7 @@ namespace cassini {
 
 void Guards::setup(Simulation& sim) {
   ke0_ = sim.kinetic_energy();
-  for (const auto& m : sim.modules)
-    if (auto* c = dynamic_cast<const ChannelWalls*>(m.get())) channel_ = c;
+  channel_ = sim.find<ChannelWalls>();
 }
 
 void Guards::end_of_step(Simulation& sim) {

@@ -88,9 +88,7 @@ void Inlet::top_up(Simulation& sim) {
   if (added.empty()) return;
 
   // The owner of each new particle adds it; then every rank rebuilds (collective).
-  const StokesDrag* drag = nullptr;
-  for (const auto& m : sim.modules)
-    if (auto* d = dynamic_cast<const StokesDrag*>(m.get())) drag = d;
+  const StokesDrag* drag = sim.find<StokesDrag>();
   for (const auto& q : added) {
     const Vec3 x(q.x, q.y, q.z);
     if (sim.domain.owner(x[sim.domain.axis]) != sim.domain.rank) continue;
