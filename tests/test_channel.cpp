@@ -154,6 +154,28 @@ TEST(ClogMonitor, BeadsTooBigForTheNeckClogIt) {
   EXPECT_LT(sim->time, 2.0);
 }
 
+TEST(ClogMonitor, EndingAtRestGivesTheFullWindowsResult) {
+  // The early end at a fixed point must not change the answer: same clog time and escapee
+  // count as waiting out the whole window (the definition), only sooner.
+  const std::vector<std::string> scene{"channel.neck_width=6.0e-5", "clog.window=0.6", "time.end=3.0"};
+  auto full_set = scene;
+  full_set.push_back("clog.rest_speed=0");
+  auto early = make_sim(channel_case(), scene);
+  auto full = make_sim(channel_case(), full_set);
+  early->setup();
+  early->run();
+  full->setup();
+  full->run();
+  const auto* a = early->find<ClogMonitor>();
+  const auto* b = full->find<ClogMonitor>();
+  ASSERT_TRUE(a->clogged());
+  ASSERT_TRUE(b->clogged());
+  EXPECT_EQ(a->escapees(), b->escapees());
+  EXPECT_DOUBLE_EQ(a->clog_time(), b->clog_time());
+  EXPECT_NEAR(full->time, b->clog_time() + 0.6, 2e-3);  // the window, to the check interval
+  EXPECT_LT(early->time, full->time - 0.1);                // and the rest end saved real time
+}
+
 TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
   auto sim = make_sim(channel_case(), {"species[0].radius=1.5e-5", "inlet.volume_fraction=0.05", "time.end=0.6",
                                        "clog.window=0.2"});
@@ -172,7 +194,7 @@ TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
   // Beads wider than the neck pile up behind it under the drag (phi ~ 0.6, voidage ~ 40x) and
   // must stay there, bounded, for the whole 1 s clog window: no guard trips (overlap < 20 %,
   // finite state), overlaps stay small and nothing moves faster than the fluid.
-  auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=1.0", "time.end=3.0"});
+  auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=1.0", "time.end=3.0", "clog.rest_speed=0"});
   sim->setup();
   double worst_overlap = 0, fastest = 0;
   while (!sim->finished && sim->time < 3.0) {

@@ -109,6 +109,8 @@ void read_channel_config(CaseFile& f, Config& c) {
   // [clog]
   ch.clog_window = positive(f, "clog.window", 1.0);
   ch.pass_x = f.number("clog.pass_x", ch.neck_x1 + c.max_radius());
+  ch.rest_speed = f.number("clog.rest_speed", 1e-6 * ch.mean_velocity);
+  if (!(ch.rest_speed >= 0)) f.fail("clog.rest_speed", "a speed >= 0 (0 turns the early end at rest off)");
   if (ch.pass_x < ch.neck_x1 || ch.pass_x >= c.hi[0]) f.fail("clog.pass_x", "an x between the neck's exit and the domain's end");
 }
 

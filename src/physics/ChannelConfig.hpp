@@ -44,6 +44,7 @@ struct ChannelConfig {
   // [clog]
   double clog_window = 1.0;     // no passage and no change at the neck for this long = clogged
   double pass_x = 0;            // a particle has escaped once its centre is beyond this x
+  double rest_speed = 0;        // every particle slower than this (and the inlet full) = at rest
 };
 
 // Reads the channel tables into cfg.channel (only for scenes with the "channel" module).

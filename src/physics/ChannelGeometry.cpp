@@ -34,26 +34,53 @@ void ChannelGeometry::add_wall(const std::vector<Point2>& line, double side) {
   for (int k = 1; k < n; ++k) vertices_.push_back({line[k][0], line[k][1], first + k - 1, first + k});
 }
 
+void ChannelGeometry::face_contact(int k, double x, double y, double reach, std::vector<WallContact>& out) const {
+  const Face& f = faces_[k];
+  if (x < f.xmin - reach || x > f.xmax + reach) return;  // cheap reject: most faces are far
+  const double px = x - f.x0, py = y - f.y0;
+  const double t = px * f.tx + py * f.ty;
+  if ((t < 0 && !f.open0) || (t > f.len && !f.open1)) return;  // the vertex's business
+  const double s = px * f.nx + py * f.ny;
+  if (s < reach && s > -reach) out.push_back({k, s, f.nx, f.ny});
+}
+
+void ChannelGeometry::vertex_contact(int k, double x, double y, double reach, std::vector<WallContact>& out) const {
+  const Vertex& v = vertices_[k];
+  const Face& a = faces_[v.before];
+  const Face& b = faces_[v.after];
+  const double px = x - v.x, py = y - v.y;
+  // In the vertex's region: past the end of the face before and before the start of the next.
+  if (px * a.tx + py * a.ty <= 0 || px * b.tx + py * b.ty >= 0) return;
+  const double d = std::hypot(px, py);
+  if (d < reach && d > 0) out.push_back({static_cast<int>(faces_.size()) + k, d, px / d, py / d});
+}
+
 void ChannelGeometry::contacts(double x, double y, double reach, std::vector<WallContact>& out) const {
   const int nf = static_cast<int>(faces_.size());
-  for (int k = 0; k < nf; ++k) {
-    const Face& f = faces_[k];
-    if (x < f.xmin - reach || x > f.xmax + reach) continue;  // cheap reject: most faces are far
-    const double px = x - f.x0, py = y - f.y0;
-    const double t = px * f.tx + py * f.ty;
-    if ((t < 0 && !f.open0) || (t > f.len && !f.open1)) continue;  // the vertex's business
-    const double s = px * f.nx + py * f.ny;
-    if (s < reach && s > -reach) out.push_back({k, s, f.nx, f.ny});
+  if (reach <= bin_reach_) {
+    const int b = std::clamp(static_cast<int>(std::floor((x - bin_x0_) / bin_width_)), 0, static_cast<int>(bins_.size()) - 1);
+    for (const int k : bins_[b]) k < nf ? face_contact(k, x, y, reach, out) : vertex_contact(k - nf, x, y, reach, out);
+    return;
   }
-  for (std::size_t k = 0; k < vertices_.size(); ++k) {
-    const Vertex& v = vertices_[k];
-    const Face& a = faces_[v.before];
-    const Face& b = faces_[v.after];
-    const double px = x - v.x, py = y - v.y;
-    // In the vertex's region: past the end of the face before and before the start of the next.
-    if (px * a.tx + py * a.ty <= 0 || px * b.tx + py * b.ty >= 0) continue;
-    const double d = std::hypot(px, py);
-    if (d < reach && d > 0) out.push_back({nf + static_cast<int>(k), d, px / d, py / d});
+  for (int k = 0; k < nf; ++k) face_contact(k, x, y, reach, out);
+  for (int k = 0; k < static_cast<int>(vertices_.size()); ++k) vertex_contact(k, x, y, reach, out);
+}
+
+void ChannelGeometry::index(double reach, double x0, double x1) {
+  // Bins one reach wide; the end bins extend to infinity. A feature is a candidate in a bin
+  // when its x extent, widened by the reach, meets the bin's.
+  const int n = std::max(1, static_cast<int>(std::ceil((x1 - x0) / reach)));
+  bins_.assign(n, {});
+  bin_x0_ = x0;
+  bin_width_ = (x1 - x0) / n;
+  bin_reach_ = reach;
+  const int nf = static_cast<int>(faces_.size());
+  for (int b = 0; b < n; ++b) {
+    const double lo = b == 0 ? -1e300 : x0 + b * bin_width_, hi = b == n - 1 ? 1e300 : x0 + (b + 1) * bin_width_;
+    for (int k = 0; k < nf; ++k)
+      if (faces_[k].xmin - reach <= hi && faces_[k].xmax + reach >= lo) bins_[b].push_back(k);
+    for (int k = 0; k < static_cast<int>(vertices_.size()); ++k)
+      if (vertices_[k].x - reach <= hi && vertices_[k].x + reach >= lo) bins_[b].push_back(nf + k);
   }
 }
 

@@ -32,14 +32,21 @@ class ChannelGeometry {
   int features() const { return static_cast<int>(faces_.size() + vertices_.size()); }
   // Every feature within `reach` of the centre (x, y), appended to out.
   void contacts(double x, double y, double reach, std::vector<WallContact>& out) const;
+  // Speeds up contacts() for reaches up to `reach`: candidate features per x bin over [x0, x1]
+  // (in a straight stretch only the two side faces can be touched).
+  void index(double reach, double x0, double x1);
 
  private:
   struct Face { double x0, y0, tx, ty, len, nx, ny; bool open0, open1; double xmin, xmax; };
   struct Vertex { double x, y; int before, after; };  // faces on either side
   void add_wall(const std::vector<Point2>& line, double side);
+  void face_contact(int k, double x, double y, double reach, std::vector<WallContact>& out) const;
+  void vertex_contact(int k, double x, double y, double reach, std::vector<WallContact>& out) const;
   std::vector<Point2> upper_, lower_;
   std::vector<Face> faces_;
   std::vector<Vertex> vertices_;
+  std::vector<std::vector<int>> bins_;  // feature indices, ascending (the full scan's order)
+  double bin_x0_ = 0, bin_width_ = 1, bin_reach_ = -1;
 };
 
 }  // namespace cassini

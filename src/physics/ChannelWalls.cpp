@@ -7,7 +7,9 @@
 namespace cassini {
 
 ChannelWalls::ChannelWalls(const Config& cfg, double dt, int first_slot)
-    : law_(cfg, dt), geometry_(cfg.channel), first_slot_(first_slot) {}
+    : law_(cfg, dt), geometry_(cfg.channel), first_slot_(first_slot) {
+  geometry_.index(cfg.max_radius(), cfg.lo[0], cfg.hi[0]);
+}
 
 void ChannelWalls::force(Simulation& sim) {
   ParticleStore& p = sim.particles;

@@ -232,6 +232,7 @@ FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
 
   // Nodes over the whole domain: the solve's nodes, and the duct series outside them.
   dx_ = b.dx;
+  inv_dx_ = 1 / b.dx;
   const int ilo = static_cast<int>(std::floor((cfg.lo[0] - b.x0) / b.dx)) - 1;
   const int ihi = std::max(static_cast<int>(std::ceil((cfg.hi[0] - b.x0) / b.dx)) + 1, b.nx);
   const int first = std::min(ilo, 0);
@@ -240,7 +241,7 @@ FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
   n_[2] = b.nz + 1;
   origin_ = Vec3(b.x0 + first * b.dx, b.y0, b.z0);
   const std::size_t plane = std::size_t(n_[1]) * n_[2];
-  u_.assign(n_[0] * plane, 0.0); v_ = u_; w_ = u_;
+  node_.assign(n_[0] * plane, Vec3::Zero());
   const double W = cfg.hi[1] - cfg.lo[1];
   const DuctFlow duct(W, cfg.hi[2] - cfg.lo[2], ch.mean_velocity, ch.series_terms);
   std::vector<double> series(plane);
@@ -250,11 +251,9 @@ FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
     const int is = i + first;  // index in the solve region
     const std::size_t at = i * plane;
     if (is >= 0 && is <= b.nx) {
-      std::copy_n(s.u.begin() + is * plane, plane, u_.begin() + at);
-      std::copy_n(s.v.begin() + is * plane, plane, v_.begin() + at);
-      std::copy_n(s.w.begin() + is * plane, plane, w_.begin() + at);
+      for (std::size_t n = 0; n < plane; ++n) node_[at + n] = Vec3(s.u[is * plane + n], s.v[is * plane + n], s.w[is * plane + n]);
     } else {
-      std::copy(series.begin(), series.end(), u_.begin() + at);
+      for (std::size_t n = 0; n < plane; ++n) node_[at + n][0] = series[n];
     }
   }
 }
@@ -263,7 +262,7 @@ Vec3 FlowField::velocity(const Vec3& x) const {
   double f[3];
   int c[3];
   for (int d = 0; d < 3; ++d) {
-    const double s = std::clamp((x[d] - origin_[d]) / dx_, 0.0, double(n_[d] - 1) - 1e-9);
+    const double s = std::clamp((x[d] - origin_[d]) * inv_dx_, 0.0, double(n_[d] - 1) - 1e-9);
     c[d] = static_cast<int>(s);
     f[d] = s - c[d];
   }
@@ -273,7 +272,7 @@ Vec3 FlowField::velocity(const Vec3& x) const {
       for (int e = 0; e < 2; ++e) {
         const double wgt = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
         const std::size_t n = (std::size_t(c[0] + a) * n_[1] + c[1] + b) * n_[2] + c[2] + e;
-        out += wgt * Vec3(u_[n], v_[n], w_[n]);
+        out += wgt * node_[n];
       }
   return out;
 }

@@ -34,10 +34,10 @@ class FlowField {
   double spacing() const { return dx_; }
 
  private:
-  double dx_ = 0;
+  double dx_ = 0, inv_dx_ = 0;
   Vec3 origin_;         // position of node (0, 0, 0)
   int n_[3] = {0, 0, 0};  // nodes per direction
-  std::vector<double> u_, v_, w_;  // node values, index (i * n_[1] + j) * n_[2] + k
+  std::vector<Vec3> node_;  // velocity at node (i * n_[1] + j) * n_[2] + k, components together
   std::string cache_file_;
   FlowReport report_;
 };

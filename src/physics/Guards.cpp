@@ -16,9 +16,8 @@ void Guards::setup(Simulation& sim) {
   channel_ = sim.find<ChannelWalls>();
 }
 
-void Guards::end_of_step(Simulation& sim) {
+std::string Guards::diagnose(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
-  // Fast scan first; the message is only built when something is wrong.
   std::ostringstream why;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const bool finite = p.x[i].allFinite() && p.v[i].allFinite() && (!p.rotation || p.omega[i].allFinite());
@@ -46,7 +45,22 @@ void Guards::end_of_step(Simulation& sim) {
   if (why.tellp() == 0 && sim.moonlet && sim.moonlet->max_overlap_fraction() > max_overlap_)
     why << "moonlet overlap of " << sim.moonlet->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_
         << " (impact too fast for t_c)";
-  if (why.tellp() != 0) sim.raise_guard(why.str());
+  return why.str();
+}
+
+void Guards::end_of_step(Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  // Fast scan first: the message is only built when something is wrong (this runs every step).
+  bool bad = false;
+  for (std::size_t i = 0; i < p.nlocal && !bad; ++i)
+    bad = !(p.x[i].allFinite() && p.v[i].allFinite() && (!p.rotation || p.omega[i].allFinite()));
+  for (int d = 0; d < sim.domain.dims && !bad; ++d) {
+    if (sim.domain.boundary[d] != Boundary::Wall) continue;
+    for (std::size_t i = 0; i < p.nlocal && !bad; ++i)
+      bad = p.x[i][d] < sim.domain.lo[d] - p.radius[i] || p.x[i][d] > sim.domain.hi[d] + p.radius[i];
+  }
+  auto over = [&](const auto* m) { return m && m->max_overlap_fraction() > max_overlap_; };
+  if (bad || over(sim.contact) || over(sim.walls) || over(channel_) || over(sim.moonlet)) sim.raise_guard(diagnose(sim));
 
   // Kinetic energy growth (collective: every rank takes this branch on the same steps).
   if (!energy_source_ && ke0_ > 0 && sim.step_count % 100 == 0) {

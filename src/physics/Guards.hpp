@@ -19,6 +19,7 @@ class Guards : public Module {
   void end_of_step(Simulation& sim) override;
 
  private:
+  std::string diagnose(const Simulation& sim) const;  // why the fast scan failed
   double max_overlap_, energy_growth_;
   bool energy_source_;
   double ke0_ = 0;

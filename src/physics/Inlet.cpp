@@ -69,6 +69,7 @@ void Inlet::top_up(Simulation& sim) {
   Random rng(cfg_.seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(sim.step_count) + 1);
   std::vector<Nearby> added;
   int attempts = 0;
+  full_ = present + 0.5 * volume(sp.radius_min) > target;
   while (attempts < ch.inlet_attempts) {
     const double a = sp.radius_min == sp.radius_max ? sp.radius_min : rng.uniform(sp.radius_min, sp.radius_max);
     if (present + 0.5 * volume(a) > target) break;  // closest to the target

@@ -21,6 +21,8 @@ class Inlet : public Module {
   void end_of_step(Simulation& sim) override;
   long inserted() const { return inserted_; }
   long failed_top_ups() const { return short_; }
+  // The last top-up found the zone at its target: as long as nothing moves, none will insert.
+  bool full() const { return full_; }
 
  private:
   void top_up(Simulation& sim);
@@ -29,6 +31,7 @@ class Inlet : public Module {
   long every_ = 1;
   std::int64_t next_id_ = 0;
   long inserted_ = 0, short_ = 0;
+  bool full_ = false;
 };
 
 }  // namespace cassini

@@ -94,24 +94,25 @@ class LinearSpringDashpot {
       return f;
     }
     const Vec3 vt = vrel - vn * n;
-    // Keep the spring in the current tangent plane, preserving its length.
-    const double len = xi->norm();
-    Vec3 s = *xi - n.dot(*xi) * n;
-    const double slen = s.norm();
-    if (slen > 0) s *= len / slen;
+    // Keep the spring in the current tangent plane, preserving its length. Squared norms
+    // and one sqrt per call: this is the innermost loop of every frictional scene.
+    Vec3 s = *xi;
+    const double len2 = s.squaredNorm();
+    if (len2 > 0) {
+      s -= n.dot(s) * n;
+      const double slen2 = s.squaredNorm();
+      if (slen2 > 0) s *= std::sqrt(len2 / slen2);
+    }
     s += vt * dt_;
     const double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
     ft = -kt * s - gt * vt;
-    const double fcap = std::max(fn, 0.0);
-    const double ftn = ft.norm();
-    if (ftn > L.mu_s * fcap) {
-      if (ftn > 0) {
-        const Vec3 dir = ft / ftn;
-        ft = (L.mu_d * fcap) * dir;
-        s = -(L.mu_d * fcap / kt) * dir;
-      } else {
-        s.setZero();
-      }
+    const double cap = L.mu_s * std::max(fn, 0.0);
+    const double ft2 = ft.squaredNorm();
+    if (ft2 > cap * cap) {  // sliding (ft2 > 0 here, since cap >= 0)
+      const Vec3 dir = ft / std::sqrt(ft2);
+      const double slide = L.mu_d * std::max(fn, 0.0);
+      ft = slide * dir;
+      s = -(slide / kt) * dir;
     }
     *xi = s;
     return f + ft;
