@@ -12,11 +12,13 @@
 using namespace cassini;
 using namespace cassini::test;
 
-TEST(ChannelRanks, OneAndTwoRanksAgreeBitwiseAndCountEveryBead) {
+namespace {
+
+void one_vs_two_ranks(std::vector<std::string> over) {
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   // Beads inserted near the neck so that some pass it and leave through the outlet soon.
-  const std::vector<std::string> over = {"inlet.x=-2.5e-4", "species[0].radius=2.5e-5"};
+  over.insert(over.end(), {"inlet.x=-2.5e-4", "species[0].radius=2.5e-5"});
   const long steps = 150000;  // 0.3 s
   auto run = [&](MPI_Comm comm, long& inserted, long& present, long& removed) {
     auto sim = make_sim(channel_case(), over, comm);
@@ -39,4 +41,14 @@ TEST(ChannelRanks, OneAndTwoRanksAgreeBitwiseAndCountEveryBead) {
   EXPECT_EQ(i1, i2);
   ASSERT_GT(one.size(), 10u);
   EXPECT_EQ(differing(one, two), 0);
+}
+
+}  // namespace
+
+TEST(ChannelRanks, OneAndTwoRanksAgreeBitwiseAndCountEveryBead) { one_vs_two_ranks({}); }
+
+TEST(ChannelRanks, MetisCellsBalancedEveryRebuildWithLubricationAgreeBitwise) {
+  // Lubrication widens the pair range to a + a + d/2: ghosts reach further.
+  one_vs_two_ranks({"domain.decomposition=\"metis\"", "domain.balance_every=1",
+                    "modules=[\"contact\", \"channel\", \"drag\", \"inlet\", \"clog\", \"lubrication\"]"});
 }

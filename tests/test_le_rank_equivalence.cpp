@@ -122,3 +122,8 @@ TEST(LeesEdwardsRanks, MoreRanksThanCells) {
   // images reach across several ranks.
   compare_rank_counts(kShearedGas, {"domain.hi=[0.0025, 0.005, 0.01]", "particles.volume_fraction=0.2"}, 3000, 0.0);
 }
+
+TEST(LeesEdwardsRanks, FrictionalShearedGasMetisCells) {
+  // Cells owned by METIS parts: the ranks across the sheared boundary are a patchwork.
+  compare_rank_counts(kShearedGas, {"domain.decomposition=\"metis\""}, 10000, 0.02 * 0.99);
+}

@@ -26,7 +26,7 @@ bool Config::has_module(const std::string& name) const {
 namespace {
 
 const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls", "hill", "moonlet",
-                                                "channel", "drag", "inlet", "clog"};
+                                                "channel", "drag", "inlet", "clog", "lubrication"};
 
 int axis_index(CaseFile& f, const std::string& key, const std::string& v) {
   if (v == "x") return 0;
@@ -72,6 +72,9 @@ Config read_config(CaseFile& f) {
   c.planar = f.boolean("domain.planar", false);
   c.slab_axis = axis_index(f, "domain.slab_axis", f.string("domain.slab_axis", "x"));
   if (c.planar && c.slab_axis == 2) f.fail("domain.slab_axis", "\"x\" or \"y\" in a planar scene");
+  c.decomposition = f.string("domain.decomposition", "slabs");
+  if (c.decomposition != "slabs" && c.decomposition != "metis")
+    f.fail("domain.decomposition", "\"slabs\" (cuts along domain.slab_axis) or \"metis\" (a METIS partition of cells)");
   c.balance_every = f.integer("domain.balance_every", 0);
   if (c.balance_every < 0) f.fail("domain.balance_every", "an integer >= 0 (rebuilds between load balancing; 0 = off)");
 
@@ -107,9 +110,18 @@ Config read_config(CaseFile& f) {
   c.modules = f.strings("modules", std::vector<std::string>{"contact"});
   for (const auto& m : c.modules)
     if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end())
-      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet, channel, drag, inlet, clog}; unknown module '" + m + "'");
+      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet, channel, drag, inlet, clog, lubrication}; unknown module '" + m + "'");
   for (const char* m : {"drag", "inlet", "clog"})
     if (c.has_module(m) && !c.has_module("channel")) f.fail("modules", std::string("\"channel\" with \"") + m + "\" (it needs the channel geometry)");
+
+  // ---- lubrication (spec section 3, thesis 8.6)
+  if (c.has_module("lubrication")) {
+    double dmin = 1e300;
+    for (const auto& s : c.species) dmin = std::min(dmin, 2 * s.radius_min);
+    c.lubrication_roughness = positive(f, "lubrication.roughness", 0.01 * dmin);
+    c.lubrication_viscosity = positive(f, "lubrication.viscosity", f.number("flow.viscosity", 1.8e-3));
+    c.lubrication_reach = c.max_radius();  // h <= d/2 for the largest pair
+  }
 
   // ---- Hill frame, moonlet, shear
   if (c.has_module("hill") || c.has_module("moonlet")) {
@@ -222,10 +234,10 @@ Config read_config(CaseFile& f) {
   c.energy_growth = positive(f, "guards.energy_growth", 1e3);
 
   // A box too small for the interaction range cannot be decomposed or imaged correctly.
-  const double range = 2 * c.max_radius() + c.skin;
+  const double range = c.pair_range();
   for (int d = 0; d < (c.planar ? 2 : 3); ++d)
     if (c.periodic_like(d) && c.hi[d] - c.lo[d] < 2 * range)
-      f.fail("domain.hi", "a periodic box at least 2 x (2 a_max + skin) = " + std::to_string(2 * range) +
+      f.fail("domain.hi", "a periodic box at least 2 x (2 a_max + lubrication reach + skin) = " + std::to_string(2 * range) +
                               " long on every periodic axis");
 
   f.reject_unknown_keys();

@@ -37,6 +37,7 @@ struct Config {
   std::array<Boundary, 3> boundary{Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
   bool planar = false;  // centres stay on z = lo_z..hi_z midplane; z is never integrated
   int slab_axis = 0;
+  std::string decomposition = "slabs";  // slabs | metis (cells partitioned by METIS)
   long balance_every = 0;  // move the slab cuts to balance cost every this many rebuilds (0: never)
   double shear_rate = 0;  // Lees-Edwards gamma_dot (1/s); v_x = shear_rate * y is the imposed flow
 
@@ -66,6 +67,8 @@ struct Config {
   std::vector<std::string> modules;
   Vec3 gravity{0, 0, 0};
   bool clip_normal = false;
+  // Lubrication (module "lubrication"): Reynolds pair force for gaps 0..reach, cut at roughness
+  double lubrication_roughness = 0, lubrication_viscosity = 0, lubrication_reach = 0;
   double skin = 0;                // Verlet skin; default 0.1 x largest diameter
   double max_rebuild_every = 0;   // 0: rebuild only on displacement
 
@@ -88,6 +91,9 @@ struct Config {
 
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
   double max_radius() const;
+  // Largest centre distance at which two particles interact, plus the skin: the neighbour
+  // list's and the halo's range.
+  double pair_range() const { return 2 * max_radius() + lubrication_reach + skin; }
   bool has_module(const std::string& name) const;
   bool sheared() const { return boundary[1] == Boundary::LeesEdwards; }
   bool periodic_like(int d) const { return boundary[d] == Boundary::Periodic || boundary[d] == Boundary::LeesEdwards; }

@@ -222,7 +222,7 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
     Vec3 x = cands[k].x;
     for (int d = 0; d < 3; ++d)  // periodic axes: wrap into the box
       if (cfg.periodic_like(d)) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
-    if (dom.owner(x[dom.axis]) != dom.rank) continue;
+    if (dom.owner(x) != dom.rank) continue;
     const double a = cands[k].a;
     const double m = cfg.species[species[k]].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
     p.add(static_cast<std::int64_t>(k), species[k], a, m, x, velocities[k]);

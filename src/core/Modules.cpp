@@ -5,6 +5,7 @@
 #include "physics/ClogMonitor.hpp"
 #include "physics/ContactForces.hpp"
 #include "physics/Inlet.hpp"
+#include "physics/Lubrication.hpp"
 #include "physics/StokesDrag.hpp"
 #include "physics/Gravity.hpp"
 #include "physics/Guards.hpp"
@@ -27,6 +28,7 @@ std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation&
   m.push_back(std::move(integrator));
   // Force order is fixed (contacts, walls, body forces): part of what makes runs reproducible.
   if (cfg.has_module("contact")) m.push_back(std::make_unique<ContactForces>(cfg, sim.dt));
+  if (cfg.has_module("lubrication")) m.push_back(std::make_unique<Lubrication>(cfg, sim.dt));
   if (cfg.has_module("walls")) m.push_back(std::make_unique<PlaneWalls>(cfg, sim.dt));
   if (cfg.has_module("channel")) {
     auto walls = std::make_unique<ChannelWalls>(cfg, sim.dt, static_cast<int>(domain_walls(cfg).size()));

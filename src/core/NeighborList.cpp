@@ -8,9 +8,11 @@ namespace cassini {
 NeighborList::Grid NeighborList::make_grid(const Decomposition& dom, double range, std::size_t particles) {
   Grid g;
   double len[3];
+  Vec3 box_lo, box_hi;
+  dom.local_box(box_lo, box_hi);
   for (int d = 0; d < 3; ++d) {
-    const double lo = (d == dom.axis ? dom.slab_lo() : dom.lo[d]) - range;
-    const double hi = (d == dom.axis ? dom.slab_hi() : dom.hi[d]) + range;
+    const double lo = box_lo[d] - range;
+    const double hi = box_hi[d] + range;
     g.lo[d] = lo;
     len[d] = hi - lo;
   }

@@ -74,6 +74,9 @@ class Simulation {
   double range = 0, skin = 0;
   long rebuilds = 0;
   double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
+  // Max / mean rank cost (particles + neighbour pairs) measured at every rebuild.
+  double imbalance_sum = 0, imbalance_worst = 1;
+  long imbalance_samples = 0;
 
   std::vector<std::unique_ptr<Module>> modules;
   ContactForces* contact = nullptr;  // convenience views into `modules` (may be null)

@@ -129,7 +129,10 @@ void RunOutput::summary(Simulation& sim, double wall, long steps) {
   for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << rates[r];
   js << "],\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
   for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << sim.domain.cuts[r];
-  js << "],\n  \"imbalance_at_last_balancing\": " << sim.imbalance << ",\n  \"active_modules\": [";
+  js << "],\n  \"decomposition\": \"" << sim.cfg.decomposition << "\"";
+  js << ",\n  \"imbalance_at_last_balancing\": " << sim.imbalance;
+  js << ",\n  \"imbalance_mean\": " << (sim.imbalance_samples ? sim.imbalance_sum / sim.imbalance_samples : 1.0);
+  js << ",\n  \"imbalance_worst\": " << sim.imbalance_worst << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
   for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << "\"" << names[k] << "\"";
   js << "],\n  \"final_kinetic_energy\": " << ke;

@@ -1,6 +1,12 @@
 #pragma once
-// Which part of the box this rank owns: one slab along `axis`, bounded by cuts[rank] and
-// cuts[rank+1]. The cuts are plain data so a load balancer can move them at run time.
+// Which part of the box this rank owns. Two ways (domain.decomposition):
+//  - "slabs" (default): one slab along `axis`, bounded by cuts[rank] and cuts[rank+1]. The
+//    cuts are plain data so a load balancer can move them at run time.
+//  - "metis": the box is cut into cells at least one interaction range wide and every cell
+//    is given to a rank by a METIS partition of the cell graph, weighted by cost when
+//    balancing. Any shape of region, e.g. a crowded upstream channel split along y too.
+// Everything else asks only owner(x), ranks_near(x, reach) and local_box(), so the halo
+// exchange and the neighbour build are the same code for both.
 // Also the box geometry every rank agrees on: bounds, boundary types, and the Lees-Edwards
 // shear state (x shifted by a growing offset across the y boundaries) when a scene has one.
 #include <array>
@@ -32,16 +38,30 @@ struct Decomposition {
   std::array<Boundary, 3> boundary{};
   std::vector<double> cuts;  // nranks + 1 entries, cuts.front() = lo[axis], cuts.back() = hi[axis]
   ShearBoundary shear;
+  // Cell ownership ("metis"): empty in slab mode.
+  std::array<int, 3> ncell{1, 1, 1};
+  Vec3 cell_size;
+  std::vector<int> cell_owner;  // by cell (k * ncell[1] + j) * ncell[0] + i
 
   Decomposition(const Config& cfg, MPI_Comm comm);
 
   double slab_lo() const { return cuts[rank]; }
   double slab_hi() const { return cuts[rank + 1]; }
-  int owner(double coord) const;  // rank whose slab holds this coordinate along axis (clamped)
-  // Moves the cuts so that every slab holds about the same cost: `coord` and `cost` are this
-  // rank's particles' positions along the axis and their costs. Collective. Returns the
-  // imbalance (max over mean of the per-rank cost) before the move.
-  double balance(const std::vector<double>& coord, const std::vector<double>& cost);
+  bool cells() const { return !cell_owner.empty(); }
+  // Switches to cell ownership with cells at least `range` wide, partitioned with unit weights.
+  void use_cells(double range);
+  int owner(const Vec3& x) const;  // rank owning the point (clamped into the box)
+  // Every rank whose region lies within `reach` of x (x may be a periodic image outside the
+  // box), ascending, this rank included.
+  void ranks_near(const Vec3& x, double reach, std::vector<int>& out) const;
+  // Bounding box of this rank's region (the whole box when it owns nothing).
+  void local_box(Vec3& box_lo, Vec3& box_hi) const;
+  // Moves the region borders so that every rank holds about the same cost: `x` and `cost`
+  // are this rank's particles' positions and costs. Collective. Returns the imbalance (max
+  // over mean of the per-rank cost) before the move.
+  double balance(const std::vector<Vec3>& x, const std::vector<double>& cost);
+  // Max over mean of the per-rank cost, without moving anything. Collective.
+  double imbalance(double my_cost) const;
   bool periodic(int d) const { return boundary[d] == Boundary::Periodic; }
 };
 

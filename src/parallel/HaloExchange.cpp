@@ -78,7 +78,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
         gone = true;
       }
     }
-    const int dest = dom_.owner(x[dom_.axis]);
+    const int dest = dom_.owner(x);
     if (gone || dest != dom_.rank) {
       if (!gone) {
         auto& buf = out[dest];
@@ -110,16 +110,15 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
     p.nlocal = p.size();
   }
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (dom_.owner(p.x[i][dom_.axis]) != dom_.rank)
+    if (dom_.owner(p.x[i]) != dom_.rank)
       throw std::runtime_error("particle " + std::to_string(p.id[i]) +
-                               " landed outside its slab after migration (moved more than the box in one rebuild interval)");
+                               " landed outside its rank's region after migration (moved more than the box in one rebuild interval)");
 }
 
 void HaloExchange::build_ghosts(ParticleStore& p) {
   p.resize(p.nlocal);
   send_.assign(dom_.nranks, {});
   const Vec3 L = dom_.length;
-  const int a = dom_.axis;
   const bool sheared = dom_.shear.enabled;
   const double off = sheared ? dom_.shear.wrapped(L[0]) : 0.0;
   shear_base_ = dom_.shear.offset - off;
@@ -154,12 +153,9 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
       for (int ix = 0; ix < nkx; ++ix)
         for (int iz = 0; iz < nc[2]; ++iz) {
           Image im{static_cast<std::uint32_t>(i), {kxs[ix], ky, cand[2][iz]}};
-          const double ya = x[a] + shift(im)[a];
-          const int r0 = dom_.owner(ya - range_), r1 = dom_.owner(ya + range_);
-          for (int r = r0; r <= r1; ++r) {
-            if (r == dom_.rank && im.k[0] == 0 && im.k[1] == 0 && im.k[2] == 0) continue;
-            if (ya >= dom_.cuts[r] - range_ && ya < dom_.cuts[r + 1] + range_) send_[r].push_back(im);
-          }
+          dom_.ranks_near(x + shift(im), range_, near_);
+          for (const int r : near_)
+            if (r != dom_.rank || im.k[0] != 0 || im.k[1] != 0 || im.k[2] != 0) send_[r].push_back(im);
         }
     }
   }

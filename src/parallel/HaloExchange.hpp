@@ -2,8 +2,8 @@
 // Moving particles between ranks, and the ghost halo.
 //
 // Ghosts are made in one pass over the owned particles: for each periodic (or sheared) image
-// of a particle near the box faces, every rank whose slab, widened by the interaction range,
-// holds the image receives a copy. This one rule covers the plain neighbour slab, periodic
+// of a particle near the box faces, every rank whose region (slab or cells), widened by the
+// interaction range, holds the image receives a copy. This one rule covers the plain neighbour slab, periodic
 // wrap-around, edges and corners, slabs thinner than the range, and the Lees-Edwards case in
 // which the ranks facing a slab across the sheared boundary change as the offset grows.
 // What was sent is remembered as (particle, image) pairs, so each step only positions and
@@ -60,6 +60,7 @@ class HaloExchange {
   double shear_base_ = 0;                 // offset - wrapped offset at the last build
   std::vector<std::vector<double>> out_;
   std::vector<double> in_;
+  std::vector<int> near_;  // scratch: ranks near one image
 };
 
 }  // namespace cassini

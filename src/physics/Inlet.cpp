@@ -92,7 +92,7 @@ void Inlet::top_up(Simulation& sim) {
   const StokesDrag* drag = sim.find<StokesDrag>();
   for (const auto& q : added) {
     const Vec3 x(q.x, q.y, q.z);
-    if (sim.domain.owner(x[sim.domain.axis]) != sim.domain.rank) continue;
+    if (sim.domain.owner(x) != sim.domain.rank) continue;
     const Vec3 v = drag ? drag->flow().velocity(x) : Vec3::Zero();
     sim.incoming.push_back({q.id, cfg_.init_species, q.a, sp.density * volume(q.a), x, v});
   }

@@ -1,0 +1,43 @@
+#include "physics/Lubrication.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/Simulation.hpp"
+
+namespace cassini {
+
+Lubrication::Lubrication(const Config& cfg, double dt)
+    : roughness_(cfg.lubrication_roughness), viscosity_(cfg.lubrication_viscosity), dt_(dt) {}
+
+Vec3 Lubrication::pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj) const {
+  const double r = d.norm(), a_star = ai * aj / (ai + aj);
+  const double gap = r - ai - aj;
+  if (gap > 2 * a_star || r == 0) return Vec3::Zero();
+  const Vec3 n = d / r;
+  const double h = std::max(gap, 2 * roughness_);
+  const double m_star = mi * mj / (mi + mj);
+  const double beta = 6 * std::numbers::pi * viscosity_ * a_star * a_star / (h * m_star);
+  const double rate = -std::expm1(-beta * dt_) / dt_;  // -> beta when beta dt << 1
+  return (-m_star * rate * dv.dot(n)) * n;
+}
+
+void Lubrication::force(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  long active = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    Vec3 sum = Vec3::Zero();
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      const Vec3 f = pair_force(p.x[i] - p.x[j], p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
+      if (f.isZero(0)) continue;
+      sum += f;
+      ++active;
+    }
+    p.f[i] += sum;
+  }
+  active_ = active;
+}
+
+}  // namespace cassini
