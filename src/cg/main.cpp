@@ -1,5 +1,7 @@
 // cassini-cg: coarse-grained fields from cassini snapshots, in the spirit of MercuryCG.
 //   mpirun -n 2 cassini-cg run/snap_*.h5md --grid 200x50 --width 100 --kernel gauss --out fields.h5
+//   cassini-cg run/dump --frames 0.9T0: --grid 200x50 --width 100 --background shear --out fields.h5
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -38,6 +40,78 @@ void read(hid_t file, const std::string& path, hsize_t lo, hsize_t n, hsize_t w,
   const herr_t r = H5Dread(d, H5T_NATIVE_DOUBLE, mem, fs_, H5P_DEFAULT, n ? out : dummy);
   H5Sclose(mem); H5Sclose(fs_); H5Dclose(d);
   if (r < 0) fail("cannot read " + path);
+}
+
+// Time of a snapshot and its frame's angular velocity (0 when the frame does not rotate).
+void frame_time(const std::string& path, double& time, double& rotation) {
+  hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file < 0) fail(path + ": not a readable HDF5 file (truncated or still being written?)");
+  double state[3] = {0, 0, 0};
+  rotation = 0;
+  try {
+    read(file, "parameters/time_offset_dt", 0, 3, 1, state, false);
+    if (H5Lexists(file, "parameters/frame_rotation", H5P_DEFAULT) > 0)
+      read(file, "parameters/frame_rotation", 0, 1, 1, &rotation, false);
+  } catch (...) {
+    H5Fclose(file);
+    throw std::runtime_error(path + ": not a cassini snapshot (no parameters/time_offset_dt)");
+  }
+  H5Fclose(file);
+  time = state[0];
+}
+
+// One end of a --frames window: seconds ("120", "120s") or orbital periods ("0.9T0").
+double window_end(const std::string& text, double T0) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (...) {
+    fail("--frames: expected START:END with times like 4000, 4000s or 0.9T0, got '" + text + "'");
+  }
+  const std::string unit = text.substr(used);
+  if (unit.empty() || unit == "s") return v;
+  if (unit == "T0") {
+    if (!(T0 > 0)) fail("--frames: T0 (the orbital period) needs snapshots of a rotating (hill) frame");
+    return v * T0;
+  }
+  fail("--frames: unknown unit '" + unit + "' in '" + text + "' (use s or T0)");
+}
+
+// The snapshot files named on the command line (directories: their snap_*.h5md, by step),
+// keeping those whose time lies in the --frames window [start, end].
+std::vector<std::string> select_frames(const std::vector<std::string>& args, const std::string& window) {
+  std::vector<std::string> files;
+  for (const auto& a : args) {
+    if (!fs::is_directory(a)) {
+      files.push_back(a);
+      continue;
+    }
+    std::vector<std::string> found;
+    for (const auto& e : fs::directory_iterator(a)) {
+      const std::string name = e.path().filename().string();
+      if (name.rfind("snap_", 0) == 0 && e.path().extension() == ".h5md") found.push_back(e.path().string());
+    }
+    if (found.empty()) fail(a + ": directory holds no snap_*.h5md snapshots");
+    std::sort(found.begin(), found.end());  // snap_<step> is zero-padded: name order is step order
+    files.insert(files.end(), found.begin(), found.end());
+  }
+  if (window.empty()) return files;
+  const auto colon = window.find(':');
+  if (colon == std::string::npos) fail("--frames: expected START:END (either may be empty), got '" + window + "'");
+  std::vector<std::string> kept;
+  for (const auto& f : files) {
+    if (!fs::exists(f)) fail(f + ": no such snapshot");
+    double t = 0, rotation = 0;
+    frame_time(f, t, rotation);
+    const double T0 = rotation > 0 ? 2 * 3.141592653589793 / rotation : 0;
+    const std::string a = window.substr(0, colon), b = window.substr(colon + 1);
+    const double lo = a.empty() ? -1e300 : window_end(a, T0), hi = b.empty() ? 1e300 : window_end(b, T0);
+    // Half a part in 1e9 of slack: frames are written at step multiples, not exact times.
+    if (t >= lo - 1e-9 * std::abs(lo) && t <= hi + 1e-9 * std::abs(hi)) kept.push_back(f);
+  }
+  if (kept.empty()) fail("--frames " + window + ": none of the " + std::to_string(files.size()) + " snapshots is in the window");
+  return kept;
 }
 
 hsize_t rows_of(hid_t file, const std::string& path) {
@@ -156,10 +230,15 @@ int main(int argc, char** argv) {
   CLI::App app{"cassini-cg: coarse-grained fields (density, momentum, velocity, kinetic and contact stress, velocity\n"
                "fluctuations) on a regular grid from cassini H5MD snapshots, averaged over the given frames."};
   std::vector<std::string> files;
+  std::string frames;
   std::string grid_spec, kernel = "gauss", background = "auto", out = "fields.h5";
   double width = 0;
   bool force = false;
-  app.add_option("snapshots", files, "snapshot files (snap_<step>.h5md); fields are averaged over all of them")->required();
+  app.add_option("snapshots", files, "snapshot files (snap_<step>.h5md) or run directories (all their snapshots);\n"
+                                     "fields are averaged over the selected frames")->required();
+  app.add_option("--frames", frames, "time window START:END of the frames to average (either end may be empty), in\n"
+                                     "seconds or in orbital periods T0 = 2 pi/Omega0 of a Hill-frame run: 0.9T0: is\n"
+                                     "the last tenth of the first orbit onwards, :4000 everything up to t = 4000 s");
   app.add_option("--grid", grid_spec, "grid points per axis: NX (1D along x), NXxNY (2D, x-y; the default for planar\n"
                                       "scenes, giving surface densities) or NXxNYxNZ (3D). Default 100x100 or 50x50x50");
   app.add_option("--width", width, "kernel width w in metres (default: the mean particle diameter)");
@@ -180,6 +259,7 @@ int main(int argc, char** argv) {
   int code = 0;
   try {
     if (rank == 0 && fs::exists(out) && !force) fail(out + " exists: pass --force to overwrite");
+    files = select_frames(files, frames);
     Fields sum;
     Grid g;
     std::string dims_note;

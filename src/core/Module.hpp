@@ -9,6 +9,8 @@
 //   final_integrate     v += dt/2 F/m
 //   end_of_step         guards, observables, output
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace cassini {
 
@@ -35,6 +37,10 @@ class Module {
   virtual void end_of_step(Simulation&) {}
   virtual void pre_rebuild(Simulation&) {}
   virtual void post_rebuild(Simulation&) {}
+  // Run state beyond the particles that a restart must restore (counters, timers), as named
+  // numbers with the same value on every rank. Written into every snapshot; a restarted
+  // run finds them in Simulation::restart_state when setup() is called.
+  virtual void save_state(std::vector<std::pair<std::string, double>>&) const {}
 };
 
 }  // namespace cassini

@@ -217,6 +217,8 @@ void Simulation::run(RunOutput* out) {
     }
   }
   if (global_guard_pending()) check_guards();
+  // A run that a module ended (a clog) gets a last frame with its final state and results.
+  if (out && snap_every && finished && step_count % snap_every != 0) out->snapshot(*this);
 }
 
 bool Simulation::global_guard_pending() {

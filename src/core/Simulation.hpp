@@ -104,6 +104,13 @@ class Simulation {
   bool finished = false;
   std::string finish_reason;
   std::vector<std::pair<std::string, std::string>> results;
+  // Module state read from a snapshot (see Module::save_state); empty for a fresh run.
+  std::vector<std::pair<std::string, double>> restart_state;
+  bool restart_value(const std::string& key, double& value) const {
+    for (const auto& [k, v] : restart_state)
+      if (k == key) { value = v; return true; }
+    return false;
+  }
 
  private:
   void compute_forces();

@@ -1,6 +1,7 @@
 #include "io/Snapshot.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -26,6 +27,12 @@ using h5::attr_array;
 
 Handle group(hid_t parent, const std::string& name) {
   return Handle(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group " + name);
+}
+
+// H5Literate callback: appends each link name to a std::vector<std::string>.
+herr_t collect_name(hid_t, const char* name, const H5L_info_t*, void* names) {
+  static_cast<std::vector<std::string>*>(names)->push_back(name);
+  return 0;
 }
 
 // Small dataset written identically by every rank (collective metadata, rank-0-style data).
@@ -253,7 +260,28 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       rows_dataset(cg, "force", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, force.data(), dxpl, false);
     }
     {
-      Handle params = group(file, "parameters");
+      // Run state a restart needs beyond the particles (module counters and timers, the
+      // outlet counts), and the run's results so far (a clogging run's s, clog time, ...).
+      std::vector<std::pair<std::string, double>> state;
+      for (const auto& m : sim.modules) m->save_state(state);
+      long long counts[2] = {sim.halo.removed, sim.halo.removed_upper}, total[2];
+      MPI_Allreduce(counts, total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      state.push_back({"halo.removed", double(total[0])});
+      state.push_back({"halo.removed_upper", double(total[1])});
+      Handle pg = group(file, "parameters");
+      Handle sg = group(pg, "state");
+      for (const auto& [key, value] : state) small_dataset(sg, key, H5T_NATIVE_DOUBLE, {1}, &value, dxpl);
+      Handle rg = group(file, "results");
+      for (const auto& [key, json] : sim.results) {
+        char* end = nullptr;
+        const double v = std::strtod(json.c_str(), &end);
+        if (!json.empty() && end == json.c_str() + json.size()) attr_array<double>(rg, key, H5T_NATIVE_DOUBLE, {v});
+        else if (json == "true" || json == "false") attr_array<int>(rg, key, H5T_NATIVE_INT, {json == "true"});
+        else attr_string(rg, key, json.size() >= 2 && json.front() == '"' ? json.substr(1, json.size() - 2) : json);
+      }
+    }
+    {
+      Handle params(H5Gopen2(file, "parameters", H5P_DEFAULT), H5Gclose, "group parameters");
       attr_string(params, "case", case_text);
       attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
       const double state[3] = {time, dom.shear.offset, sim.dt};
@@ -262,6 +290,9 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       small_dataset(params, "shear_rate", H5T_NATIVE_DOUBLE, {1}, &rate, dxpl);
       const std::int32_t planar = dom.dims == 2;
       small_dataset(params, "planar", H5T_NATIVE_INT32, {1}, &planar, dxpl);
+      // Angular velocity of the frame (Omega0 in the Hill frame, else 0): cassini-cg's T0 unit.
+      const double frame_rotation = sim.cfg.has_module("hill") ? sim.cfg.omega0() : 0.0;
+      small_dataset(params, "frame_rotation", H5T_NATIVE_DOUBLE, {1}, &frame_rotation, dxpl);
       const std::int64_t s = step;
       small_dataset(params, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
       attr_string(params, "complete", "yes");  // last thing written
@@ -390,6 +421,22 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     if (std::abs(state[2] - sim.dt) > 1e-12 * sim.dt)
       throw ConfigError(path + ": snapshot dt " + std::to_string(state[2]) + " differs from the case's dt " +
                         std::to_string(sim.dt) + " (a restart must keep the time step)");
+    // Named run state (written by every rank alike; outlet counts go to rank 0 only).
+    sim.restart_state.clear();
+    if (H5Lexists(file, "parameters/state", H5P_DEFAULT) > 0) {
+      Handle sg(H5Gopen2(file, "parameters/state", H5P_DEFAULT), H5Gclose, "group parameters/state");
+      std::vector<std::string> keys;
+      H5Literate(sg, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect_name, &keys);
+      for (const auto& key : keys) {
+        double v = 0;
+        read_rows(file, "parameters/state/" + key, H5T_NATIVE_DOUBLE, 0, 1, 1, &v, dxpl, false);
+        sim.restart_state.push_back({key, v});
+      }
+    }
+    double count = 0;
+    if (sim.domain.rank == 0 && sim.restart_value("halo.removed", count)) sim.halo.removed = static_cast<std::int64_t>(count);
+    if (sim.domain.rank == 0 && sim.restart_value("halo.removed_upper", count))
+      sim.halo.removed_upper = static_cast<std::int64_t>(count);
     sim.step_count = step;
     sim.time = state[0];
     sim.domain.shear.offset = state[1];

@@ -12,6 +12,8 @@
 //   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
 //   contacts/{owner, partner, xi}   tangential springs (restart needs them)
 //   parameters/                    case (resolved TOML text), units; wall_xi per particle
+//   parameters/state/<name>        run state a restart restores (inlet ids, clog timer, outlet counts)
+//   results                        attributes: the run's results so far (as in summary.json)
 // (* only when the scene rotates)
 #include <string>
 

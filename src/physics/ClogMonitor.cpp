@@ -12,6 +12,10 @@ void ClogMonitor::setup(Simulation& sim) {
   last_change_ = sim.time;
   inlet_ = sim.find<Inlet>();
   check(sim);
+  double v;  // a restart continues the window where it was
+  if (sim.restart_value("clog.last_change", v)) last_change_ = v;
+  if (sim.restart_value("clog.rest_since", v)) rest_since_ = v;
+  publish(sim);
 }
 
 void ClogMonitor::end_of_step(Simulation& sim) {

@@ -29,6 +29,9 @@ class ClogMonitor : public Module {
   long escapees() const { return escaped_; }
   bool clogged() const { return clogged_; }
   double clog_time() const { return last_change_; }
+  void save_state(std::vector<std::pair<std::string, double>>& out) const override {
+    out.insert(out.end(), {{"clog.last_change", last_change_}, {"clog.rest_since", rest_since_}});
+  }
 
  private:
   void check(Simulation& sim);

@@ -23,6 +23,11 @@ void Inlet::setup(Simulation& sim) {
   for (std::size_t i = 0; i < sim.particles.nlocal; ++i) local = std::max(local, sim.particles.id[i]);
   MPI_Allreduce(&local, &next_id_, 1, MPI_INT64_T, MPI_MAX, sim.domain.comm);
   ++next_id_;
+  // After a restart the counters go on; ids are never reused even if the newest bead has left.
+  double v;
+  if (sim.restart_value("inlet.next_id", v)) next_id_ = static_cast<std::int64_t>(v);
+  if (sim.restart_value("inlet.inserted", v)) inserted_ = static_cast<long>(v);
+  if (sim.restart_value("inlet.failed_top_ups", v)) short_ = static_cast<long>(v);
   if (!sim.restored) top_up(sim);
 }
 

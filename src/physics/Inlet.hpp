@@ -23,6 +23,10 @@ class Inlet : public Module {
   long failed_top_ups() const { return short_; }
   // The last top-up found the zone at its target: as long as nothing moves, none will insert.
   bool full() const { return full_; }
+  void save_state(std::vector<std::pair<std::string, double>>& out) const override {
+    out.insert(out.end(), {{"inlet.next_id", double(next_id_)}, {"inlet.inserted", double(inserted_)},
+                           {"inlet.failed_top_ups", double(short_)}});
+  }
 
  private:
   void top_up(Simulation& sim);
