@@ -241,7 +241,7 @@ int main(int argc, char** argv) {
                                      "the last tenth of the first orbit onwards, :4000 everything up to t = 4000 s");
   app.add_option("--grid", grid_spec, "grid points per axis: NX (1D along x), NXxNY (2D, x-y; the default for planar\n"
                                       "scenes, giving surface densities) or NXxNYxNZ (3D). Default 100x100 or 50x50x50");
-  app.add_option("--width", width, "kernel width w in metres (default: the mean particle diameter)");
+  app.add_option("--width", width, "kernel width w in metres (default: two grid spacings along the finest axis)");
   app.add_option("--kernel", kernel, "gauss (cut off at 3w), lucy (c = 2w) or heaviside (c = w); default gauss");
   app.add_option("--background", background, "flow the 'background' fluctuations are measured against: shear (v_x =\n"
                                               "rate y, the snapshot's Lees-Edwards rate), shear:RATE, none, or auto (shear\n"
