@@ -56,12 +56,7 @@ double Decomposition::balance(const std::vector<Vec3>& x, const std::vector<doub
     // Cost per cell, summed over ranks; every rank runs the same deterministic partition.
     const std::size_t n = cell_owner.size();
     std::vector<double> w(n, 0.0), g(n);
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      int c[3];
-      for (int d = 0; d < 3; ++d)
-        c[d] = std::clamp(static_cast<int>(std::floor((x[i][d] - lo[d]) / cell_size[d])), 0, ncell[d] - 1);
-      w[(c[2] * ncell[1] + c[1]) * ncell[0] + c[0]] += cost[i];
-    }
+    for (std::size_t i = 0; i < x.size(); ++i) w[cell_of(x[i])] += cost[i];
     MPI_Allreduce(w.data(), g.data(), static_cast<int>(n), MPI_DOUBLE, MPI_SUM, comm);
     const std::array<bool, 3> wrap{periodic(0), periodic(1) || shear.enabled, periodic(2)};
     cell_owner = partition_cells(ncell, wrap, g, nranks);
@@ -94,13 +89,15 @@ double Decomposition::balance(const std::vector<Vec3>& x, const std::vector<doub
   return before;
 }
 
+std::size_t Decomposition::cell_of(const Vec3& x) const {
+  int c[3];
+  for (int d = 0; d < 3; ++d)
+    c[d] = std::clamp(static_cast<int>(std::floor((x[d] - lo[d]) / cell_size[d])), 0, ncell[d] - 1);
+  return (std::size_t(c[2]) * ncell[1] + c[1]) * ncell[0] + c[0];
+}
+
 int Decomposition::owner(const Vec3& x) const {
-  if (cells()) {
-    int c[3];
-    for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp(static_cast<int>(std::floor((x[d] - lo[d]) / cell_size[d])), 0, ncell[d] - 1);
-    return cell_owner[(c[2] * ncell[1] + c[1]) * ncell[0] + c[0]];
-  }
+  if (cells()) return cell_owner[cell_of(x)];
   // upper_bound: the slab [cuts[r], cuts[r+1]) containing the coordinate
   const auto it = std::upper_bound(cuts.begin() + 1, cuts.end() - 1, x[axis]);
   return static_cast<int>(it - (cuts.begin() + 1));

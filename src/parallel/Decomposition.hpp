@@ -50,6 +50,7 @@ struct Decomposition {
   bool cells() const { return !cell_owner.empty(); }
   // Switches to cell ownership with cells at least `range` wide, partitioned with unit weights.
   void use_cells(double range);
+  std::size_t cell_of(const Vec3& x) const;  // cell holding the point (clamped into the box)
   int owner(const Vec3& x) const;  // rank owning the point (clamped into the box)
   // Every rank whose region lies within `reach` of x (x may be a periodic image outside the
   // box), ascending, this rank included.
