@@ -4,12 +4,10 @@
 
 namespace cassini::cg {
 
-void Fields::add(const Fields& o, double w) {
-  for (std::size_t i = 0; i < density.size(); ++i) density[i] += w * o.density[i];
-  for (std::size_t i = 0; i < momentum.size(); ++i) momentum[i] += w * o.momentum[i];
-  for (std::size_t i = 0; i < kinetic.size(); ++i) kinetic[i] += w * o.kinetic[i];
-  for (std::size_t i = 0; i < background.size(); ++i) background[i] += w * o.background[i];
-  for (std::size_t i = 0; i < contact.size(); ++i) contact[i] += w * o.contact[i];
+void Fields::add(Fields& o, double w) {
+  auto mine = all(), theirs = o.all();
+  for (std::size_t k = 0; k < mine.size(); ++k)
+    for (std::size_t i = 0; i < mine[k]->size(); ++i) (*mine[k])[i] += w * (*theirs[k])[i];
 }
 
 namespace {
@@ -74,8 +72,11 @@ void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& 
     const double m = f.m[p], scale = m / (total * dv);
     const double u = v[0] - bg.shear * x[1];  // fluctuation about the background flow
     const double b[3] = {u, v[1], v[2]};
+    const double* F = f.body.empty() ? nullptr : &f.body[3 * p];
     for (const Hit& h : hits) {
       const double s = scale * h.w;
+      if (F)
+        for (int d = 0; d < 3; ++d) out.body[3 * h.point + d] += h.w / (total * dv) * F[d];
       out.density[h.point] += s;
       for (int d = 0; d < 3; ++d) out.momentum[3 * h.point + d] += s * v[d];
       const int a[6] = {0, 1, 2, 0, 0, 1}, bb[6] = {0, 1, 2, 1, 2, 2};
@@ -107,6 +108,33 @@ void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, con
     for (const Hit& h : hits)
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) out.contact[9 * h.point + 3 * a + b] += scale * h.w * fc[a] * r[b];
+  }
+}
+
+void accumulate_walls(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out) {
+  const double dv = g.cell_volume();
+  const int samples = 8;
+  std::vector<Hit> hits;
+  for (std::size_t c = begin; c < end; ++c) {
+    const double* pt = &f.wall_point[3 * c];
+    const double* b = &f.wall_branch[3 * c];
+    const double* fc = &f.wall_force[3 * c];
+    hits.clear();
+    const double total = gather_hits(f, pt, g, k, hits);
+    if (total > 0)
+      for (const Hit& h : hits)
+        for (int a = 0; a < 3; ++a) out.traction[3 * h.point + a] += h.w / (total * dv) * fc[a];
+    hits.clear();
+    double line = 0;
+    for (int s = 0; s < samples; ++s) {  // midpoints along the branch from r_i = c + b to c
+      const double t = 1 - (s + 0.5) / samples;
+      const double q[3] = {pt[0] + t * b[0], pt[1] + t * b[1], pt[2] + t * b[2]};
+      line += gather_hits(f, q, g, k, hits);
+    }
+    if (line <= 0) continue;
+    for (const Hit& h : hits)
+      for (int a = 0; a < 3; ++a)
+        for (int bb = 0; bb < 3; ++bb) out.wall[9 * h.point + 3 * a + bb] += h.w / (line * dv) * fc[a] * b[bb];
   }
 }
 

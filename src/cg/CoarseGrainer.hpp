@@ -4,6 +4,8 @@
 //   momentum  p = sum m v psi,  velocity V = p / rho
 //   kinetic stress (fluctuations about the local mean)  sum m v v psi - rho V V
 //   fluctuations about a given background flow U(x)    sum m (v - U)(v - U) psi
+//   contact stress (3.27) and wall stress (3.32), wall traction density t (3.31), body-force
+//   density (3.34); for a system at rest they balance: d_b sigma_ab = t_a + F_a
 // Each particle's kernel weights on the grid (with its periodic and Lees-Edwards images) are
 // normalised to sum to 1 / cell volume, so the grid integral of rho is exactly the mass even
 // across periodic and sheared boundaries (the discrete form of int psi = 1).
@@ -17,8 +19,11 @@ namespace cassini::cg {
 
 struct Frame {
   std::vector<double> x, v, m;      // x, v: 3 per particle
+  std::vector<double> body;         // non-contact force per particle (3 each; empty: none)
   // Contacts, each pair once: position of i, branch r_i - r_j, force on i (3 each).
   std::vector<double> contact_x, contact_branch, contact_force;
+  // Wall contacts: contact point c, branch b = r_i - c, force on i (3 each).
+  std::vector<double> wall_point, wall_branch, wall_force;
   std::array<double, 3> lo{}, length{};
   std::array<bool, 3> periodic{};
   double le_offset = 0;             // Lees-Edwards: image across y shifted by this in x
@@ -41,17 +46,16 @@ struct Grid {
 };
 
 struct Fields {
-  // per point: 1, 3, 6, 6, 9 values; symmetric tensors as (xx yy zz xy xz yz), the contact
-  // stress in full (row-major ab) since f_a r_b need not be symmetric.
-  std::vector<double> density, momentum, kinetic, background, contact;
+  // per point: 1, 3, 6, 6, 9, 9, 3, 3 values; symmetric tensors as (xx yy zz xy xz yz), the
+  // contact and wall stresses in full (row-major ab) since f_a r_b need not be symmetric.
+  std::vector<double> density, momentum, kinetic, background, contact, wall, traction, body;
+  std::vector<std::vector<double>*> all() { return {&density, &momentum, &kinetic, &background, &contact, &wall, &traction, &body}; }
   void resize(std::size_t n) {
-    density.assign(n, 0);
-    momentum.assign(3 * n, 0);
-    kinetic.assign(6 * n, 0);
-    background.assign(6 * n, 0);
-    contact.assign(9 * n, 0);
+    const int width[8] = {1, 3, 6, 6, 9, 9, 3, 3};
+    auto a = all();
+    for (int k = 0; k < 8; ++k) a[k]->assign(width[k] * n, 0);
   }
-  void add(const Fields& o, double weight);
+  void add(Fields& o, double weight);
 };
 
 // Background flow: v_x = shear * y (e.g. 1.5 Omega0 in the ring); zero for none.
@@ -67,6 +71,10 @@ void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& 
 // integral uses 8 points along the branch, normalised on the grid like the particles' kernels,
 // so the grid integral of sigma is exactly sum f r (the virial).
 void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out);
+// Wall contacts [begin, end): traction density t = sum f psi(r - c) (3.31) and wall stress
+// (3.32), compression positive: sigma_ab = sum f_a b_b int_0^1 psi(r - r_i + s b) ds, the line
+// running from the centre r_i to the contact point c. Normalised on the grid like the above.
+void accumulate_walls(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out);
 // Turns raw sums into fields: kinetic = sum m v v psi - rho V V; background stays as summed.
 void finish(Fields& f, std::size_t points);
 

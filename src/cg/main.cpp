@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -151,23 +152,29 @@ Loaded load(const std::string& path, int rank, int size) {
   read(file, g + "position/value", lo, n, 3, f.x.data());
   read(file, g + "velocity/value", lo, n, 3, f.v.data());
   read(file, g + "mass/value", lo, n, 1, f.m.data());
-  {  // contacts (each pair once), block of rows per rank
-    hid_t d = must(H5Dopen2(file, "contacts/force", H5P_DEFAULT), "missing dataset contacts/force");
+  if (H5Lexists(file, (g + "body_force").c_str(), H5P_DEFAULT) > 0) {
+    f.body.resize(3 * n);
+    read(file, g + "body_force/value", lo, n, 3, f.body.data());
+  }
+  // Pair and wall contacts (each once), a block of rows per rank; the three arrays of a kind
+  // (3 values per row) share their row count. Snapshots from before wall forces have none.
+  auto rows_block = [&](const std::vector<std::string>& names, std::vector<std::vector<double>*> into) {
+    if (H5Lexists(file, names[0].c_str(), H5P_DEFAULT) <= 0) return;
+    hid_t d = must(H5Dopen2(file, names[0].c_str(), H5P_DEFAULT), "missing dataset " + names[0]);
     hid_t sp = H5Dget_space(d);
     hsize_t dims[2] = {0, 0};
     H5Sget_simple_extent_dims(sp, dims, nullptr);
     H5Sclose(sp);
     H5Dclose(d);
     const hsize_t M = dims[0], clo = M * rank / size, cn = M * (rank + 1) / size - clo;
-    f.contact_x.resize(3 * cn);
-    f.contact_branch.resize(3 * cn);
-    f.contact_force.resize(3 * cn);
-    if (M > 0) {
-      read(file, "contacts/position_i", clo, cn, 3, f.contact_x.data(), false);
-      read(file, "contacts/branch", clo, cn, 3, f.contact_branch.data(), false);
-      read(file, "contacts/force", clo, cn, 3, f.contact_force.data(), false);
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      into[k]->resize(3 * cn);
+      if (M > 0) read(file, names[k], clo, cn, 3, into[k]->data(), false);
     }
-  }
+  };
+  if (H5Lexists(file, "contacts", H5P_DEFAULT) <= 0) fail(path + ": no contacts group");
+  rows_block({"contacts/force", "contacts/position_i", "contacts/branch"}, {&f.contact_force, &f.contact_x, &f.contact_branch});
+  rows_block({"contacts/wall_force", "contacts/wall_point", "contacts/wall_branch"}, {&f.wall_force, &f.wall_point, &f.wall_branch});
   double edges[9], origin[3], state[3], rate = 0, planar = 0;
   read(file, g + "box/edges/value", 0, 3, 3, edges);
   read(file, g + "box/origin", 0, 3, 1, origin, false);
@@ -220,6 +227,41 @@ void write_attr(hid_t obj, const std::string& name, const std::string& value) {
   H5Aclose(a); H5Sclose(s); H5Tclose(t);
 }
 
+// ParaView reads the fields through this sidecar: a co-rectilinear mesh of the grid points.
+void write_xdmf(const std::string& out, const Grid& g, std::size_t frames) {
+  const std::string h5 = fs::path(out).filename().string();
+  std::string dims, origin, spacing;
+  for (int d = g.dims - 1; d >= 0; --d) {  // slowest axis first, as stored
+    dims += std::to_string(g.n[d]) + (d ? " " : "");
+    std::ostringstream o, h;
+    o.precision(17);
+    h.precision(17);
+    o << g.centre(d, 0);
+    h << g.h(d);
+    origin += o.str() + (d ? " " : "");
+    spacing += h.str() + (d ? " " : "");
+  }
+  const std::string mesh = g.dims == 3 ? "3DCoRectMesh" : "2DCoRectMesh";
+  const std::string geo = g.dims == 3 ? "ORIGIN_DXDYDZ" : "ORIGIN_DXDY";
+  std::ofstream x(fs::path(out).replace_extension(".xdmf"));
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"cg\" GridType=\"Uniform\">\n"
+    << "   <Information Name=\"frames\" Value=\"" << frames << "\"/>\n"
+    << "   <Topology TopologyType=\"" << mesh << "\" Dimensions=\"" << dims << "\"/>\n"
+    << "   <Geometry GeometryType=\"" << geo << "\">\n"
+    << "    <DataItem Dimensions=\"" << g.dims << "\" Format=\"XML\">" << origin << "</DataItem>\n"
+    << "    <DataItem Dimensions=\"" << g.dims << "\" Format=\"XML\">" << spacing << "</DataItem>\n   </Geometry>\n";
+  const std::pair<const char*, int> fields[] = {{"density", 1}, {"velocity", 3}, {"momentum", 3}, {"velocity_fluctuation", 1},
+                                                {"background_fluctuation", 1}, {"stress", 9}, {"wall_traction", 3},
+                                                {"body_force_density", 3}};
+  for (const auto& [name, c] : fields) {
+    const char* type = c == 1 ? "Scalar" : c == 3 ? "Vector" : "Tensor";
+    x << "   <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n    <DataItem Dimensions=\""
+      << dims << (c > 1 ? " " + std::to_string(c) : "") << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/"
+      << name << "</DataItem>\n   </Attribute>\n";
+  }
+  x << "  </Grid>\n </Domain>\n</Xdmf>\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -227,12 +269,13 @@ int main(int argc, char** argv) {
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  CLI::App app{"cassini-cg: coarse-grained fields (density, momentum, velocity, kinetic and contact stress, velocity\n"
-               "fluctuations) on a regular grid from cassini H5MD snapshots, averaged over the given frames."};
+  CLI::App app{"cassini-cg: coarse-grained fields (density, momentum, velocity, velocity fluctuations; kinetic, contact\n"
+               "and wall stress; wall traction and body-force densities) on a regular grid from cassini H5MD snapshots,\n"
+               "averaged over the given frames. Writes HDF5 plus an XDMF sidecar for ParaView (2D and 3D grids)."};
   std::vector<std::string> files;
   std::string frames;
   std::string grid_spec, kernel = "gauss", background = "auto", out = "fields.h5";
-  double width = 0;
+  double width = 0, margin = 0;
   bool force = false;
   app.add_option("snapshots", files, "snapshot files (snap_<step>.h5md) or run directories (all their snapshots);\n"
                                      "fields are averaged over the selected frames")->required();
@@ -246,6 +289,11 @@ int main(int argc, char** argv) {
   app.add_option("--background", background, "flow the 'background' fluctuations are measured against: shear (v_x =\n"
                                               "rate y, the snapshot's Lees-Edwards rate), shear:RATE, none, or auto (shear\n"
                                               "when the run was sheared)");
+  app.add_option("--margin", margin, "extend the grid by this many metres beyond the box on each side of every\n"
+                                      "non-periodic axis (default 0). A particle's kernel is renormalised to the grid\n"
+                                      "so that mass is conserved; with a margin of at least the kernel's cutoff nothing\n"
+                                      "is cut at a wall, and div(stress) = wall_traction + body_force_density holds\n"
+                                      "up to the wall (for a system at rest)")->check(CLI::NonNegativeNumber);
   app.add_option("--out", out, "output HDF5 file (default fields.h5)");
   app.add_flag("--force", force, "overwrite an existing output file");
   try {
@@ -278,14 +326,11 @@ int main(int argc, char** argv) {
         g.dims = int(n.size());
         for (int d = 0; d < 3; ++d) {
           g.n[d] = d < g.dims ? n[d] : 1;
-          g.lo[d] = L.frame.lo[d];
-          g.hi[d] = L.frame.lo[d] + L.frame.length[d];
+          const double pad = d < g.dims && !L.frame.periodic[d] ? margin : 0.0;
+          g.lo[d] = L.frame.lo[d] - pad;
+          g.hi[d] = L.frame.lo[d] + L.frame.length[d] + pad;
         }
-        if (width <= 0) {  // mean diameter of the first frame, across ranks
-          double local[2] = {0, double(L.frame.m.size())}, global[2];
-          // radius is not read; estimate from spacing-free default: use 1/20 of the shortest grid extent
-          local[0] = 0;
-          MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+        if (width <= 0) {  // two grid spacings along the finest axis
           width = 1e300;
           for (int d = 0; d < g.dims; ++d) width = std::min(width, 2 * g.h(d));
         }
@@ -301,15 +346,17 @@ int main(int argc, char** argv) {
       f.resize(g.size());
       accumulate(L.frame, 0, L.frame.m.size(), g, kern, bg, f);
       accumulate_contacts(L.frame, 0, L.frame.contact_force.size() / 3, g, kern, f);
+      accumulate_walls(L.frame, 0, L.frame.wall_force.size() / 3, g, kern, f);
       sum.add(f, 1.0 / files.size());
     }
     // Sum the ranks' partial grids on rank 0.
-    for (auto* v : {&sum.density, &sum.momentum, &sum.kinetic, &sum.background, &sum.contact})
+    for (auto* v : sum.all())
       MPI_Reduce(rank == 0 ? MPI_IN_PLACE : v->data(), v->data(), int(v->size()), MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
     if (rank == 0) {
       finish(sum, g.size());
       const std::size_t P = g.size();
-      std::vector<double> velocity(3 * P, 0), fluct(P, 0), bfluct(P, 0), stress(6 * P);
+      std::vector<double> velocity(3 * P, 0), fluct(P, 0), bfluct(P, 0), stress(6 * P), total(9 * P);
+      const int sym[9] = {0, 3, 4, 3, 1, 5, 4, 5, 2};  // (a, b) -> index in (xx yy zz xy xz yz)
       for (std::size_t i = 0; i < P; ++i) {
         const double rho = sum.density[i];
         if (rho > 0) {
@@ -318,6 +365,7 @@ int main(int argc, char** argv) {
           bfluct[i] = std::sqrt(std::max(0.0, (sum.background[6 * i] + sum.background[6 * i + 1] + sum.background[6 * i + 2]) / rho));
         }
         for (int q = 0; q < 6; ++q) stress[6 * i + q] = sum.kinetic[6 * i + q];
+        for (int q = 0; q < 9; ++q) total[9 * i + q] = sum.kinetic[6 * i + sym[q]] + sum.contact[9 * i + q] + sum.wall[9 * i + q];
       }
       std::vector<hsize_t> shape;
       for (int d = g.dims - 1; d >= 0; --d) shape.push_back(hsize_t(g.n[d]));  // C order: [z][y][x]
@@ -335,20 +383,28 @@ int main(int argc, char** argv) {
       write_dataset(file, "velocity", with(3), velocity.data());
       write_dataset(file, "kinetic_stress", with(6), stress.data());
       write_dataset(file, "contact_stress", with(9), sum.contact.data());
+      write_dataset(file, "wall_stress", with(9), sum.wall.data());
+      write_dataset(file, "stress", with(9), total.data());
+      write_dataset(file, "wall_traction", with(3), sum.traction.data());
+      write_dataset(file, "body_force_density", with(3), sum.body.data());
       write_dataset(file, "velocity_fluctuation", with(1), fluct.data());
       write_dataset(file, "background_fluctuation", with(1), bfluct.data());
       hid_t root = H5Gopen2(file, "/", H5P_DEFAULT);
       std::ostringstream desc;
       desc << "kernel " << kernel << ", width " << width << " m, " << files.size() << " frame(s), " << g.dims
            << "D grid; density is mass per " << (g.dims == 3 ? "volume" : g.dims == 2 ? "area (surface density)" : "length")
-           << "; stresses compression-positive: kinetic_stress = sum m v'v' psi (xx yy zz xy xz yz), contact_stress = sum_pairs f r int psi ds (3x3, row a = force component); fluctuations are rms speeds about the local mean "
-              "velocity and about the background flow";
+           << "; stresses compression-positive: kinetic_stress = sum m v'v' psi (xx yy zz xy xz yz), contact_stress = "
+              "sum_pairs f r int psi ds (3x3, row a = force component, also lubrication pairs), wall_stress = sum_walls f b "
+              "int psi ds (b = centre - contact point), stress = kinetic + contact + wall; wall_traction = sum_walls f psi(r - c), "
+              "body_force_density = sum F psi (gravity, drag, frame forces); at rest div(stress) = wall_traction + "
+              "body_force_density; fluctuations are rms speeds about the local mean velocity and about the background flow";
       write_attr(root, "description", desc.str());
       write_attr(root, "kernel", kernel);
       write_attr(root, "width", std::to_string(width));
       H5Gclose(root);
       H5Fclose(file);
       fs::rename(tmp, out);
+      if (g.dims >= 2) write_xdmf(out, g, files.size());
       std::cout << "cassini-cg: " << files.size() << " frame(s) -> " << out << " (" << desc.str() << ")\n";
     }
   } catch (const std::exception& e) {

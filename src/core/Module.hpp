@@ -8,13 +8,28 @@
 //   force               forces from x(t+dt) and the half-step velocity v(t+dt/2)
 //   final_integrate     v += dt/2 F/m
 //   end_of_step         guards, observables, output
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "core/Vec3.hpp"
+
 namespace cassini {
 
 class Simulation;
+
+// Forces for stress output (snapshots, cassini-cg), evaluated at the current state (full-step
+// velocities) without changing any contact history.
+struct PairForce {  // one interacting pair, once, from the side with the lower id
+  std::int64_t i, j;
+  Vec3 xi, branch, force;  // position of i, r_i - r_j (to the interacting image), force on i
+};
+struct WallForce {  // one particle-wall contact
+  std::int64_t i;
+  Vec3 point, branch, force;  // the wall point nearest the centre of i (the contact point),
+                              // r_i - point, force on i
+};
 
 enum Stage : unsigned {
   kInitialIntegrate = 1u << 0,
@@ -41,6 +56,13 @@ class Module {
   // numbers with the same value on every rank. Written into every snapshot; a restarted
   // run finds them in Simulation::restart_state when setup() is called.
   virtual void save_state(std::vector<std::pair<std::string, double>>&) const {}
+
+  // Stress bookkeeping (thesis 3.27, 3.32, 3.34): a module that puts pair forces, wall forces
+  // or body forces (anything that is neither) on particles reports them here. Each appends;
+  // add_body_forces adds into one entry per owned particle.
+  virtual void pair_forces(const Simulation&, std::vector<PairForce>&) const {}
+  virtual void wall_forces(const Simulation&, std::vector<WallForce>&) const {}
+  virtual void add_body_forces(const Simulation&, std::vector<Vec3>&) const {}
 };
 
 }  // namespace cassini

@@ -21,6 +21,11 @@ void Gravity::force(Simulation& sim) {
   for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * g_;
 }
 
+void Gravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * g_;
+}
+
 std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation& sim) {
   std::vector<std::unique_ptr<Module>> m;
   auto integrator = std::make_unique<VelocityVerlet>(cfg.planar);

@@ -41,4 +41,19 @@ void attr_array(hid_t obj, const std::string& name, hid_t type, const std::vecto
   check(H5Awrite(a, type, v.data()), "write attr " + name);
 }
 
+inline Handle group(hid_t parent, const std::string& name) {
+  return Handle(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group " + name);
+}
+
+// The h5md/ metadata group every H5MD 1.1 file starts with.
+inline void h5md_header(hid_t file) {
+  Handle h5md = group(file, "h5md");
+  attr_array<int>(h5md, "version", H5T_NATIVE_INT, {1, 1});
+  Handle author = group(h5md, "author");
+  attr_string(author, "name", "cassini user");
+  Handle creator = group(h5md, "creator");
+  attr_string(creator, "name", "cassini");
+  attr_string(creator, "version", "0.1");
+}
+
 }  // namespace cassini::h5

@@ -37,6 +37,7 @@ RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm) : dir_(d
   if (rank_ == 0) {
     log_.open(dir + "/run.log");
     obs_.open(dir + "/observables.csv");
+    h5obs_ = std::make_unique<ObservablesFile>(dir + "/observables.h5md");
     obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
             "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts\n";
   }
@@ -85,6 +86,21 @@ void RunOutput::observe(Simulation& sim) {
        << sums[3] / mass << "," << contacts / 2 << "," << sums[5] << "," << (contacts > 0 ? sums[6] / contacts : 0.0)
        << "," << max_overlap << "," << sums[7] << "\n";
   obs_.flush();
+  // Granular temperature: the mean velocity variance over the axes that move.
+  const int dims = sim.cfg.planar ? 2 : 3;
+  const std::vector<double> variance = {sums[1] / mass, sums[2] / mass, sums[3] / mass};
+  h5obs_->append(sim.step_count, sim.time,
+                 {{"particles", {double(n)}},
+                  {"kinetic_energy", {ke}},
+                  {"elastic_energy", {pe}},
+                  {"momentum", {mom[0], mom[1], mom[2]}},
+                  {"velocity_variance", variance},
+                  {"granular_temperature", {(variance[0] + variance[1] + (dims == 3 ? variance[2] : 0.0)) / dims}},
+                  {"contacts", {contacts / 2}},
+                  {"collisions", {sums[5]}},
+                  {"mean_overlap_over_radius", {contacts > 0 ? sums[6] / contacts : 0.0}},
+                  {"max_overlap_over_radius", {max_overlap}},
+                  {"moonlet_contacts", {sums[7]}}});
 }
 
 void RunOutput::snapshot(Simulation& sim) { write_snapshot(sim, dir_, case_text); }

@@ -1,13 +1,16 @@
 #pragma once
 // What a run leaves in its output directory: run.log (everything rank 0 printed),
-// observables.csv, per-rank text dumps (until the HDF5 snapshots land), the resolved case
+// observables.csv and the same as H5MD (observables.h5md), per-rank text dumps (until the HDF5 snapshots land), the resolved case
 // file, and summary.json at the end. Refuses to write into an existing, non-empty directory
 // unless forced.
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <mpi.h>
+
+#include "io/ObservablesFile.hpp"
 
 namespace cassini {
 
@@ -30,6 +33,7 @@ class RunOutput {
   int rank_ = 0;
   MPI_Comm comm_;
   std::ofstream log_, obs_;
+  std::unique_ptr<ObservablesFile> h5obs_;
 };
 
 }  // namespace cassini

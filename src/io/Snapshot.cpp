@@ -24,10 +24,7 @@ using h5::Handle;
 using h5::check;
 using h5::attr_string;
 using h5::attr_array;
-
-Handle group(hid_t parent, const std::string& name) {
-  return Handle(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group " + name);
-}
+using h5::group;
 
 // H5Literate callback: appends each link name to a std::vector<std::string>.
 herr_t collect_name(hid_t, const char* name, const H5L_info_t*, void* names) {
@@ -87,8 +84,10 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   const Decomposition& dom = sim.domain;
   const int P = dom.nranks;
   const int nw = p.rotation ? p.walls : 0;
-  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw]
-  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw;
+  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], body force
+  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + 3;
+  std::vector<Vec3> body(p.nlocal, Vec3::Zero());  // the non-contact forces, for cassini-cg (3.34)
+  for (const auto& m : sim.modules) m->add_body_forces(sim, body);
 
   // Redistribute rows into id blocks so that rows come out ordered by id.
   std::int64_t max_local = -1, max_id = 0;
@@ -105,6 +104,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       r.insert(r.end(), p.torque[i].data(), p.torque[i].data() + 3);
       for (int w = 0; w < nw; ++w) r.insert(r.end(), p.wall_xi[i * nw + w].data(), p.wall_xi[i * nw + w].data() + 3);
     }
+    r.insert(r.end(), body[i].data(), body[i].data() + 3);
   }
   std::vector<int> sc(P), rc(P), sd(P), rd(P);
   std::vector<double> sendbuf, in;
@@ -132,7 +132,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   std::vector<std::int64_t> ids(n);
   std::vector<std::int32_t> species(n);
   std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n), w(p.rotation ? 3 * n : 0),
-      t(p.rotation ? 3 * n : 0), wx(3 * nw * n);
+      t(p.rotation ? 3 * n : 0), wx(3 * nw * n), bf(3 * n);
   for (std::size_t k = 0; k < n; ++k) {
     const double* r = &in[order[k] * width];
     ids[k] = bits_id(r[0]);
@@ -146,6 +146,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       if (p.rotation) { w[3 * k + c] = r[13 + c]; t[3 * k + c] = r[16 + c]; }
     }
     for (int c = 0; c < 3 * nw; ++c) wx[3 * nw * k + c] = r[19 + c];
+    for (int c = 0; c < 3; ++c) bf[3 * k + c] = r[width - 3 + c];
   }
 
   std::ostringstream name;
@@ -160,21 +161,14 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "collective");
     const long step = sim.step_count;
     const double time = sim.time;
-    {
-      Handle h5md = group(file, "h5md");
-      attr_array<int>(h5md, "version", H5T_NATIVE_INT, {1, 1});
-      Handle author = group(h5md, "author");
-      attr_string(author, "name", "cassini user");
-      Handle creator = group(h5md, "creator");
-      attr_string(creator, "name", "cassini");
-      attr_string(creator, "version", "0.1");
-    }
+    h5::h5md_header(file);
     Handle particles = group(file, "particles");
     Handle grains = group(particles, "grains");
     const hsize_t N = total, off = offset, rows = n;
     element(grains, "position", H5T_NATIVE_DOUBLE, N, off, rows, 3, x.data(), step, time, dxpl);
     element(grains, "velocity", H5T_NATIVE_DOUBLE, N, off, rows, 3, v.data(), step, time, dxpl);
     element(grains, "force", H5T_NATIVE_DOUBLE, N, off, rows, 3, f.data(), step, time, dxpl);
+    element(grains, "body_force", H5T_NATIVE_DOUBLE, N, off, rows, 3, bf.data(), step, time, dxpl);
     element(grains, "id", H5T_NATIVE_INT64, N, off, rows, 1, ids.data(), step, time, dxpl);
     element(grains, "species", H5T_NATIVE_INT32, N, off, rows, 1, species.data(), step, time, dxpl);
     element(grains, "radius", H5T_NATIVE_DOUBLE, N, off, rows, 1, radius.data(), step, time, dxpl);
@@ -236,9 +230,14 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       rows_dataset(cg, "owner", H5T_NATIVE_INT64, mtot, moff, m, 1, owner.data(), dxpl, false);
       rows_dataset(cg, "partner", H5T_NATIVE_INT64, mtot, moff, m, 1, partner.data(), dxpl, false);
       rows_dataset(cg, "xi", H5T_NATIVE_DOUBLE, mtot, moff, m, 3, xi.data(), dxpl, false);
-      // Contact forces for stress (each pair once): ids, position of i, branch r_i - r_j, force on i.
-      std::vector<ContactForces::PairRecord> pairs;
-      if (sim.contact) sim.contact->pair_forces(sim, pairs);
+      // Pair forces for stress (each pair once; contacts and lubrication): ids, position of i,
+      // branch r_i - r_j, force on i. Wall contacts: particle id, contact point, force on it.
+      std::vector<PairForce> pairs;
+      std::vector<WallForce> walls;
+      for (const auto& mod : sim.modules) {
+        mod->pair_forces(sim, pairs);
+        mod->wall_forces(sim, walls);
+      }
       long long q = static_cast<long long>(pairs.size()), qoff = 0, qtot = 0;
       MPI_Exscan(&q, &qoff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
       if (dom.rank == 0) qoff = 0;
@@ -258,6 +257,24 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       rows_dataset(cg, "position_i", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, pos.data(), dxpl, false);
       rows_dataset(cg, "branch", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, branch.data(), dxpl, false);
       rows_dataset(cg, "force", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, force.data(), dxpl, false);
+      long long u = static_cast<long long>(walls.size()), uoff = 0, utot = 0;
+      MPI_Exscan(&u, &uoff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      if (dom.rank == 0) uoff = 0;
+      MPI_Allreduce(&u, &utot, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+      std::vector<std::int64_t> wid(u);
+      std::vector<double> wpoint(3 * u), wbranch(3 * u), wforce(3 * u);
+      for (long long k = 0; k < u; ++k) {
+        wid[k] = walls[k].i;
+        for (int c = 0; c < 3; ++c) {
+          wpoint[3 * k + c] = walls[k].point[c];
+          wbranch[3 * k + c] = walls[k].branch[c];
+          wforce[3 * k + c] = walls[k].force[c];
+        }
+      }
+      rows_dataset(cg, "wall_particle", H5T_NATIVE_INT64, utot, uoff, u, 1, wid.data(), dxpl, false);
+      rows_dataset(cg, "wall_point", H5T_NATIVE_DOUBLE, utot, uoff, u, 3, wpoint.data(), dxpl, false);
+      rows_dataset(cg, "wall_branch", H5T_NATIVE_DOUBLE, utot, uoff, u, 3, wbranch.data(), dxpl, false);
+      rows_dataset(cg, "wall_force", H5T_NATIVE_DOUBLE, utot, uoff, u, 3, wforce.data(), dxpl, false);
     }
     {
       // Run state a restart needs beyond the particles (module counters and timers, the

@@ -8,9 +8,14 @@
 // Layout (h5py: f["particles/grains/position/value"][0]):
 //   h5md/                          version [1,1], author, creator
 //   particles/grains/{position, velocity, omega*, id, species, radius, mass}/{step,time,value}
+//   particles/grains/{force, torque*, body_force, wall_xi*}/{step,time,value}   forces of the step;
+//                                  body_force: the non-contact part (gravity, drag, frame forces)
 //   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
 //   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
 //   contacts/{owner, partner, xi}   tangential springs (restart needs them)
+//   contacts/{pair_ids, position_i, branch, force}   pair forces, each pair once (contacts and
+//                                  lubrication), at the snapshot state: for stress (cassini-cg)
+//   contacts/{wall_particle, wall_point, wall_branch, wall_force}   particle-wall contacts
 //   parameters/                    case (resolved TOML text), units; wall_xi per particle
 //   parameters/state/<name>        run state a restart restores (inlet ids, clog timer, outlet counts)
 //   results                        attributes: the run's results so far (as in summary.json)

@@ -35,18 +35,30 @@ void ChannelWalls::force(Simulation& sim) {
         sim.raise_guard(os.str());
         continue;
       }
-      const Vec3 n(c.nx, c.ny, 0);
-      const double delta = a - c.distance;
-      Vec3 vrel = p.v[i];
-      if (fric) vrel -= a * p.omega[i].cross(n);
-      Vec3 ft;
-      const int sp = p.species[i];
-      p.f[i] += law_.force(law_.law(sp, sp), p.mass[i], delta, n, vrel, fric ? &xi[c.feature] : nullptr, ft);
-      if (fric) p.torque[i] += (-a * n).cross(ft);
-      worst = std::max(worst, delta / a);
+      Vec3 torque;
+      p.f[i] += law_.wall_force(p, i, Vec3(c.nx, c.ny, 0), a - c.distance, fric ? &xi[c.feature] : nullptr, torque);
+      if (fric) p.torque[i] += torque;
+      worst = std::max(worst, (a - c.distance) / a);
     }
   }
   max_overlap_ = worst;
+}
+
+void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
+  const ParticleStore& p = sim.particles;
+  const bool fric = law_.friction();
+  std::vector<WallContact> touching;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    touching.clear();
+    geometry_.contacts(p.x[i][0], p.x[i][1], p.radius[i], touching);
+    for (const auto& c : touching) {
+      if (c.distance <= 0) continue;
+      const Vec3 n(c.nx, c.ny, 0);
+      Vec3 spring = fric ? p.wall_xi[i * p.walls + first_slot_ + c.feature] : Vec3::Zero(), torque;
+      const Vec3 f = law_.wall_force(p, i, n, p.radius[i] - c.distance, fric ? &spring : nullptr, torque);
+      out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
+    }
+  }
 }
 
 }  // namespace cassini

@@ -16,6 +16,7 @@ class ChannelWalls : public Module {
   std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
+  void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   double max_overlap_fraction() const { return max_overlap_; }
   const ChannelGeometry& geometry() const { return geometry_; }
 

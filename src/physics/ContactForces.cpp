@@ -100,11 +100,10 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
       if (!xi_[k].isZero(0)) out.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});
 }
 
-void ContactForces::pair_forces(const Simulation& sim, std::vector<PairRecord>& out) const {
+void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   const bool fric = law_.friction();
-  out.clear();
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
       const std::uint32_t j = nl.partner[k];

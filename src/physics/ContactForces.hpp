@@ -20,14 +20,8 @@ class ContactForces : public Module {
   void pre_rebuild(Simulation& sim) override;
   // Tangential springs as (owner id, partner id, xi) for every owned contact with history.
   void springs(const Simulation& sim, std::vector<HistoryEntry>& out) const;
-  // Every contact once (from the side with the lower id): ids, position of that particle, branch
-  // vector r_i - r_j (to the interacting image) and the force on i, evaluated at the current
-  // state (full-step velocities; springs unchanged). For stress output.
-  struct PairRecord {
-    std::int64_t i, j;
-    Vec3 xi, branch, force;
-  };
-  void pair_forces(const Simulation& sim, std::vector<PairRecord>& out) const;
+  // Every contact once (springs unchanged).
+  void pair_forces(const Simulation& sim, std::vector<PairForce>& out) const override;
   // Recomputes contact counts and overlaps without touching forces or springs (after a restart).
   void refresh_diagnostics(const Simulation& sim);
   void post_rebuild(Simulation& sim) override;

@@ -11,6 +11,7 @@ class Gravity : public Module {
   std::string name() const override { return "gravity"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
+  void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
   const Vec3& g() const { return g_; }
 
  private:

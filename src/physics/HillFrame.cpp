@@ -19,6 +19,11 @@ Vec3 HillFrame::acceleration(const Vec3& x) const {
   return (omega_ * omega_ - gm_ / (r * r * r)) * s;
 }
 
+void HillFrame::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * acceleration(p.x[i]);
+}
+
 void HillFrame::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   if (!exact_) {

@@ -24,6 +24,7 @@ class HillFrame : public Module {
   std::string name() const override { return "hill (" + std::string(exact_ ? "exact" : "linear") + ")"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
+  void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
   double omega() const { return omega_; }
   // Acceleration (per unit mass) of the frame's position-dependent forces at x.

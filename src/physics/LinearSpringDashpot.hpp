@@ -20,6 +20,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/Config.hpp"
+#include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
 
 namespace cassini {
@@ -116,6 +117,19 @@ class LinearSpringDashpot {
     }
     *xi = s;
     return f + ft;
+  }
+
+  // Force on particle i of p from an immovable wall (infinite mass: m_ij = m_i, the particle's
+  // own species). n: unit normal from the wall to the centre; delta: overlap; xi: the (particle,
+  // wall) spring or nullptr without friction. torque receives the wall's torque on i.
+  Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque) const {
+    const double a = p.radius[i];
+    Vec3 vrel = p.v[i], ft;
+    if (xi) vrel -= a * p.omega[i].cross(n);
+    const int sp = p.species[i];
+    const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft);
+    torque = (-a * n).cross(ft);
+    return f;
   }
 
  private:

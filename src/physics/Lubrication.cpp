@@ -40,4 +40,17 @@ void Lubrication::force(Simulation& sim) {
   active_ = active;
 }
 
+void Lubrication::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
+  const ParticleStore& p = sim.particles;
+  const NeighborList& nl = sim.neighbors;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      if (p.id[i] >= p.id[j]) continue;
+      const Vec3 d = p.x[i] - p.x[j];
+      const Vec3 f = pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
+      if (!f.isZero(0)) out.push_back({p.id[i], p.id[j], p.x[i], d, f});
+    }
+}
+
 }  // namespace cassini

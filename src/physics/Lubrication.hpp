@@ -28,6 +28,7 @@ class Lubrication : public Module {
   std::string name() const override { return "lubrication (eps_r = " + std::to_string(roughness_) + " m)"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
+  void pair_forces(const Simulation& sim, std::vector<PairForce>& out) const override;
   // The force on i for one pair, from (x_i - x_j), (v_i - v_j), radii and masses.
   Vec3 pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj) const;
   long active_pairs() const { return active_; }

@@ -29,20 +29,33 @@ void Moonlet::force(Simulation& sim) {
     if (dims_ == 2) r[2] = 0;
     const double d = r.norm(), a = p.radius[i];
     if (d >= radius_ + a || d == 0) continue;
-    const Vec3 n = r / d;
     const double delta = radius_ + a - d;
-    Vec3 vrel = p.v[i];
-    if (fric) vrel -= a * p.omega[i].cross(n);
-    Vec3 ft;
-    Vec3 xi = Vec3::Zero();  // the moonlet is frictionless in the ring scene; no history kept
-    const int sp = p.species[i];
-    p.f[i] += law_.force(law_.law(sp, sp), p.mass[i], delta, n, vrel, fric ? &xi : nullptr, ft);
-    if (fric) p.torque[i] += (-a * n).cross(ft);
+    Vec3 xi = Vec3::Zero(), torque;  // the moonlet is frictionless in the ring scene; no history kept
+    p.f[i] += law_.wall_force(p, i, r / d, delta, fric ? &xi : nullptr, torque);
+    if (fric) p.torque[i] += torque;
     worst = std::max(worst, delta / a);
     ++contacts;
   }
   max_overlap_ = worst;
   contacts_ = contacts;
+}
+
+void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    Vec3 r = p.x[i];
+    if (dims_ == 2) r[2] = 0;
+    const double d = r.norm();
+    if (d >= radius_ + p.radius[i] || d == 0) continue;
+    Vec3 xi = Vec3::Zero(), torque;
+    const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, law_.friction() ? &xi : nullptr, torque);
+    out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
+  }
+}
+
+void Moonlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * gravity(p.x[i]);
 }
 
 }  // namespace cassini

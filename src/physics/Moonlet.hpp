@@ -17,6 +17,8 @@ class Moonlet : public Module {
   std::string name() const override { return "moonlet"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
+  void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
+  void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
   Vec3 gravity(const Vec3& x) const;  // acceleration at x
   double max_overlap_fraction() const { return max_overlap_; }

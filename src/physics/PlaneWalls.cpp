@@ -34,16 +34,27 @@ void PlaneWalls::force(Simulation& sim) {
         continue;
       }
       const double delta = a - s;
-      Vec3 vrel = p.v[i];
-      if (fric) vrel -= a * p.omega[i].cross(pl.normal);
-      Vec3 ft;
-      const int sp = p.species[i];
-      p.f[i] += law_.force(law_.law(sp, sp), p.mass[i], delta, pl.normal, vrel, xi, ft);
-      if (fric) p.torque[i] += (-a * pl.normal).cross(ft);
+      Vec3 torque;
+      p.f[i] += law_.wall_force(p, i, pl.normal, delta, xi, torque);
+      if (fric) p.torque[i] += torque;
       worst = std::max(worst, delta / a);
     }
   }
   max_overlap_ = worst;
+}
+
+void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
+  const ParticleStore& p = sim.particles;
+  const int nw = static_cast<int>(planes_.size());
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (int w = 0; w < nw; ++w) {
+      const Plane& pl = planes_[w];
+      const double s = (p.x[i] - pl.point).dot(pl.normal);
+      if (s >= p.radius[i]) continue;
+      Vec3 spring = law_.friction() ? p.wall_xi[i * p.walls + w] : Vec3::Zero(), torque;
+      const Vec3 f = law_.wall_force(p, i, pl.normal, p.radius[i] - s, law_.friction() ? &spring : nullptr, torque);
+      out.push_back({p.id[i], p.x[i] - s * pl.normal, s * pl.normal, f});
+    }
 }
 
 }  // namespace cassini

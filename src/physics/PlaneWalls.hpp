@@ -21,6 +21,7 @@ class PlaneWalls : public Module {
   std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
+  void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   const std::vector<Plane>& planes() const { return planes_; }
   double max_overlap_fraction() const { return max_overlap_; }
 

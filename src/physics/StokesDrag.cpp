@@ -39,6 +39,12 @@ void StokesDrag::refresh(Simulation& sim) {
   }
 }
 
+void StokesDrag::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal && i < factor_.size(); ++i)
+    F[i] += p.mass[i] * factor_[i] * (flow_->velocity(p.x[i]) - p.v[i]);
+}
+
 void StokesDrag::post_rebuild(Simulation& sim) {
   if (flow_) refresh(sim);  // slots were reordered (and particles may have come or gone)
 }

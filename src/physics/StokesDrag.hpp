@@ -29,6 +29,7 @@ class StokesDrag : public Module {
   void setup(Simulation& sim) override;
   void force(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
+  void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
   double voidage(double phi) const;
   const FlowField& flow() const { return *flow_; }

@@ -17,6 +17,12 @@ void VelocityVerlet::rotate_velocities(Simulation& sim) const {
   }
 }
 
+void VelocityVerlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  if (omega_ == 0) return;
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += (2 * omega_ * p.mass[i]) * Vec3(p.v[i][1], -p.v[i][0], 0);
+}
+
 void VelocityVerlet::initial_integrate(Simulation& sim) {
   ParticleStore& p = sim.particles;
   const double dt = sim.dt, h = 0.5 * sim.dt;

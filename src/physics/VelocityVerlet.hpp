@@ -18,6 +18,8 @@ class VelocityVerlet : public Module {
   unsigned stages() const override { return kInitialIntegrate | kFinalIntegrate; }
   void initial_integrate(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
+  // In a rotating frame the Coriolis force 2 m omega (vy, -vx, 0) is a body force too.
+  void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
  private:
   void rotate_velocities(Simulation& sim) const;

@@ -1,0 +1,68 @@
+#include "io/ObservablesFile.hpp"
+
+#include <cstdint>
+
+#include "io/Hdf5Handle.hpp"
+
+namespace cassini {
+
+namespace {
+
+using h5::check;
+using h5::Handle;
+
+// An extendible [T] or [T][width] dataset, chunked along time.
+void create_series(hid_t parent, const char* name, hid_t type, hsize_t width) {
+  const int rank = width > 1 ? 2 : 1;
+  const hsize_t dims[2] = {0, width}, maxdims[2] = {H5S_UNLIMITED, width}, chunk[2] = {256, width};
+  Handle space(H5Screate_simple(rank, dims, maxdims), H5Sclose, "space");
+  Handle plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "dcpl");
+  check(H5Pset_chunk(plist, rank, chunk), "chunk");
+  Handle d(H5Dcreate2(parent, name, type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose, name);
+}
+
+// Appends one row to an extendible series.
+void append_row(hid_t parent, const char* name, hid_t type, const void* data) {
+  Handle d(H5Dopen2(parent, name, H5P_DEFAULT), H5Dclose, name);
+  hsize_t dims[2] = {0, 1};
+  int rank = 1;
+  {
+    Handle s(H5Dget_space(d), H5Sclose, "space");
+    rank = H5Sget_simple_extent_ndims(s);
+    H5Sget_simple_extent_dims(s, dims, nullptr);
+  }
+  hsize_t grown[2] = {dims[0] + 1, dims[1]};
+  check(H5Dset_extent(d, grown), "extend " + std::string(name));
+  Handle fs(H5Dget_space(d), H5Sclose, "space");
+  const hsize_t start[2] = {dims[0], 0}, count[2] = {1, rank == 2 ? dims[1] : 1};
+  check(H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr), "hyperslab");
+  Handle mem(H5Screate_simple(rank, count, nullptr), H5Sclose, "mem");
+  check(H5Dwrite(d, type, mem, fs, H5P_DEFAULT, data), "append " + std::string(name));
+}
+
+}  // namespace
+
+void ObservablesFile::append(long step, double time, const Row& row) {
+  if (!created_) {
+    Handle file(H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "create " + path_);
+    h5::h5md_header(file);
+    Handle obs = h5::group(file, "observables");
+    for (const auto& [name, value] : row) {
+      Handle g = h5::group(obs, name);
+      create_series(g, "step", H5T_NATIVE_INT64, 1);
+      create_series(g, "time", H5T_NATIVE_DOUBLE, 1);
+      create_series(g, "value", H5T_NATIVE_DOUBLE, value.size());
+    }
+    created_ = true;
+  }
+  Handle file(H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + path_);
+  const std::int64_t s = step;
+  for (const auto& [name, value] : row) {
+    Handle g(H5Gopen2(file, ("observables/" + name).c_str(), H5P_DEFAULT), H5Gclose, "observables/" + name);
+    append_row(g, "step", H5T_NATIVE_INT64, &s);
+    append_row(g, "time", H5T_NATIVE_DOUBLE, &time);
+    append_row(g, "value", H5T_NATIVE_DOUBLE, value.data());
+  }
+}
+
+}  // namespace cassini
