@@ -57,6 +57,19 @@ double gather_hits(const Frame& f, const double* x, const Grid& g, const Kernel&
   return total;
 }
 
+// Kernel weights of 8 midpoints along the segment from x to x - branch (the line integral
+// int_0^1 psi(r - x + s branch) ds of the stress formulas), with their images.
+double gather_line(const Frame& f, const double* x, const double* branch, const Grid& g, const Kernel& k, std::vector<Hit>& hits) {
+  const int samples = 8;
+  double total = 0;
+  for (int s = 0; s < samples; ++s) {
+    const double t = (s + 0.5) / samples;
+    const double pt[3] = {x[0] - t * branch[0], x[1] - t * branch[1], x[2] - t * branch[2]};
+    total += gather_hits(f, pt, g, k, hits);
+  }
+  return total;
+}
+
 }  // namespace
 
 void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k,
@@ -90,19 +103,13 @@ void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& 
 
 void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out) {
   const double dv = g.cell_volume();
-  const int samples = 8;
   std::vector<Hit> hits;
   for (std::size_t c = begin; c < end; ++c) {
     const double* xi = &f.contact_x[3 * c];
     const double* r = &f.contact_branch[3 * c];
     const double* fc = &f.contact_force[3 * c];
     hits.clear();
-    double total = 0;
-    for (int s = 0; s < samples; ++s) {  // midpoints along the branch from r_i to r_j
-      const double t = (s + 0.5) / samples;
-      const double pt[3] = {xi[0] - t * r[0], xi[1] - t * r[1], xi[2] - t * r[2]};
-      total += gather_hits(f, pt, g, k, hits);
-    }
+    const double total = gather_line(f, xi, r, g, k, hits);  // from r_i to r_j
     if (total <= 0) continue;
     const double scale = 1 / (total * dv);
     for (const Hit& h : hits)
@@ -113,7 +120,6 @@ void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, con
 
 void accumulate_walls(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out) {
   const double dv = g.cell_volume();
-  const int samples = 8;
   std::vector<Hit> hits;
   for (std::size_t c = begin; c < end; ++c) {
     const double* pt = &f.wall_point[3 * c];
@@ -125,12 +131,8 @@ void accumulate_walls(const Frame& f, std::size_t begin, std::size_t end, const 
       for (const Hit& h : hits)
         for (int a = 0; a < 3; ++a) out.traction[3 * h.point + a] += h.w / (total * dv) * fc[a];
     hits.clear();
-    double line = 0;
-    for (int s = 0; s < samples; ++s) {  // midpoints along the branch from r_i = c + b to c
-      const double t = 1 - (s + 0.5) / samples;
-      const double q[3] = {pt[0] + t * b[0], pt[1] + t * b[1], pt[2] + t * b[2]};
-      line += gather_hits(f, q, g, k, hits);
-    }
+    const double centre[3] = {pt[0] + b[0], pt[1] + b[1], pt[2] + b[2]};
+    const double line = gather_line(f, centre, b, g, k, hits);  // from r_i = c + b to c
     if (line <= 0) continue;
     for (const Hit& h : hits)
       for (int a = 0; a < 3; ++a)

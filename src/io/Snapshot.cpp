@@ -72,6 +72,35 @@ void element(hid_t parent, const std::string& name, hid_t type, hsize_t total, h
   rows_dataset(g, "value", type, total, offset, rows, width, data, dxpl);
 }
 
+// This rank's rows [offset, offset + rows) of a table of `total` rows spread over the ranks.
+struct Rows {
+  hsize_t total, offset, rows;
+};
+Rows my_rows(std::size_t n, MPI_Comm comm) {
+  long long mine = static_cast<long long>(n), offset = 0, total = 0;
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Exscan(&mine, &offset, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  if (rank == 0) offset = 0;  // MPI_Exscan leaves rank 0's result undefined
+  MPI_Allreduce(&mine, &total, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  return {hsize_t(total), hsize_t(offset), hsize_t(mine)};
+}
+
+// One member of every record as a column: [N] of ids or [N][3] of a vector.
+template <class R>
+void id_column(hid_t g, const std::string& name, const Rows& r, const std::vector<R>& recs, std::int64_t R::*member, hid_t dxpl) {
+  std::vector<std::int64_t> col(recs.size());
+  for (std::size_t k = 0; k < recs.size(); ++k) col[k] = recs[k].*member;
+  rows_dataset(g, name, H5T_NATIVE_INT64, r.total, r.offset, r.rows, 1, col.data(), dxpl, false);
+}
+template <class R>
+void vec3_column(hid_t g, const std::string& name, const Rows& r, const std::vector<R>& recs, Vec3 R::*member, hid_t dxpl) {
+  std::vector<double> col(3 * recs.size());
+  for (std::size_t k = 0; k < recs.size(); ++k)
+    for (int c = 0; c < 3; ++c) col[3 * k + c] = (recs[k].*member)[c];
+  rows_dataset(g, name, H5T_NATIVE_DOUBLE, r.total, r.offset, r.rows, 3, col.data(), dxpl, false);
+}
+
 double id_bits(std::int64_t id) { double d; std::memcpy(&d, &id, 8); return d; }
 std::int64_t bits_id(double d) { std::int64_t i; std::memcpy(&i, &d, 8); return i; }
 
@@ -123,10 +152,8 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return bits_id(in[a * width]) < bits_id(in[b * width]); });
 
-  long long mine = static_cast<long long>(n), offset = 0, total = 0;
-  MPI_Exscan(&mine, &offset, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-  if (dom.rank == 0) offset = 0;
-  MPI_Allreduce(&mine, &total, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
+  const Rows block = my_rows(n, dom.comm);
+  const hsize_t total = block.total, offset = block.offset;
 
   // Column arrays in id order.
   std::vector<std::int64_t> ids(n);
@@ -215,66 +242,34 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     {  // contact springs (only with friction): each rank writes its own block
       std::vector<HistoryEntry> springs;
       if (sim.contact) sim.contact->springs(sim, springs);
-      long long m = static_cast<long long>(springs.size()), moff = 0, mtot = 0;
-      MPI_Exscan(&m, &moff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      if (dom.rank == 0) moff = 0;
-      MPI_Allreduce(&m, &mtot, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      std::vector<std::int64_t> owner(m), partner(m);
-      std::vector<double> xi(3 * m);
-      for (long long k = 0; k < m; ++k) {
-        owner[k] = springs[k].owner;
-        partner[k] = springs[k].partner;
-        for (int c = 0; c < 3; ++c) xi[3 * k + c] = springs[k].xi[c];
-      }
       Handle cg = group(file, "contacts");
-      rows_dataset(cg, "owner", H5T_NATIVE_INT64, mtot, moff, m, 1, owner.data(), dxpl, false);
-      rows_dataset(cg, "partner", H5T_NATIVE_INT64, mtot, moff, m, 1, partner.data(), dxpl, false);
-      rows_dataset(cg, "xi", H5T_NATIVE_DOUBLE, mtot, moff, m, 3, xi.data(), dxpl, false);
+      const Rows sr = my_rows(springs.size(), dom.comm);
+      id_column(cg, "owner", sr, springs, &HistoryEntry::owner, dxpl);
+      id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
+      vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
       // Pair forces for stress (each pair once; contacts and lubrication): ids, position of i,
-      // branch r_i - r_j, force on i. Wall contacts: particle id, contact point, force on it.
+      // branch r_i - r_j, force on i. Wall contacts: particle id, contact point, branch, force.
       std::vector<PairForce> pairs;
       std::vector<WallForce> walls;
       for (const auto& mod : sim.modules) {
         mod->pair_forces(sim, pairs);
         mod->wall_forces(sim, walls);
       }
-      long long q = static_cast<long long>(pairs.size()), qoff = 0, qtot = 0;
-      MPI_Exscan(&q, &qoff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      if (dom.rank == 0) qoff = 0;
-      MPI_Allreduce(&q, &qtot, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      std::vector<std::int64_t> ids(2 * q);
-      std::vector<double> pos(3 * q), branch(3 * q), force(3 * q);
-      for (long long k = 0; k < q; ++k) {
+      const Rows pr = my_rows(pairs.size(), dom.comm);
+      std::vector<std::int64_t> ids(2 * pairs.size());
+      for (std::size_t k = 0; k < pairs.size(); ++k) {
         ids[2 * k] = pairs[k].i;
         ids[2 * k + 1] = pairs[k].j;
-        for (int c = 0; c < 3; ++c) {
-          pos[3 * k + c] = pairs[k].xi[c];
-          branch[3 * k + c] = pairs[k].branch[c];
-          force[3 * k + c] = pairs[k].force[c];
-        }
       }
-      rows_dataset(cg, "pair_ids", H5T_NATIVE_INT64, qtot, qoff, q, 2, ids.data(), dxpl, false);
-      rows_dataset(cg, "position_i", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, pos.data(), dxpl, false);
-      rows_dataset(cg, "branch", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, branch.data(), dxpl, false);
-      rows_dataset(cg, "force", H5T_NATIVE_DOUBLE, qtot, qoff, q, 3, force.data(), dxpl, false);
-      long long u = static_cast<long long>(walls.size()), uoff = 0, utot = 0;
-      MPI_Exscan(&u, &uoff, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      if (dom.rank == 0) uoff = 0;
-      MPI_Allreduce(&u, &utot, 1, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      std::vector<std::int64_t> wid(u);
-      std::vector<double> wpoint(3 * u), wbranch(3 * u), wforce(3 * u);
-      for (long long k = 0; k < u; ++k) {
-        wid[k] = walls[k].i;
-        for (int c = 0; c < 3; ++c) {
-          wpoint[3 * k + c] = walls[k].point[c];
-          wbranch[3 * k + c] = walls[k].branch[c];
-          wforce[3 * k + c] = walls[k].force[c];
-        }
-      }
-      rows_dataset(cg, "wall_particle", H5T_NATIVE_INT64, utot, uoff, u, 1, wid.data(), dxpl, false);
-      rows_dataset(cg, "wall_point", H5T_NATIVE_DOUBLE, utot, uoff, u, 3, wpoint.data(), dxpl, false);
-      rows_dataset(cg, "wall_branch", H5T_NATIVE_DOUBLE, utot, uoff, u, 3, wbranch.data(), dxpl, false);
-      rows_dataset(cg, "wall_force", H5T_NATIVE_DOUBLE, utot, uoff, u, 3, wforce.data(), dxpl, false);
+      rows_dataset(cg, "pair_ids", H5T_NATIVE_INT64, pr.total, pr.offset, pr.rows, 2, ids.data(), dxpl, false);
+      vec3_column(cg, "position_i", pr, pairs, &PairForce::xi, dxpl);
+      vec3_column(cg, "branch", pr, pairs, &PairForce::branch, dxpl);
+      vec3_column(cg, "force", pr, pairs, &PairForce::force, dxpl);
+      const Rows wr = my_rows(walls.size(), dom.comm);
+      id_column(cg, "wall_particle", wr, walls, &WallForce::i, dxpl);
+      vec3_column(cg, "wall_point", wr, walls, &WallForce::point, dxpl);
+      vec3_column(cg, "wall_branch", wr, walls, &WallForce::branch, dxpl);
+      vec3_column(cg, "wall_force", wr, walls, &WallForce::force, dxpl);
     }
     {
       // Run state a restart needs beyond the particles (module counters and timers, the
