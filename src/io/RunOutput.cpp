@@ -103,7 +103,18 @@ void RunOutput::observe(Simulation& sim) {
                   {"moonlet_contacts", {sums[7]}}});
 }
 
-void RunOutput::snapshot(Simulation& sim) { write_snapshot(sim, dir_, case_text); }
+void RunOutput::snapshot(Simulation& sim) {
+  const double start = MPI_Wtime();
+  const std::string file = write_snapshot(sim, dir_, case_text);
+  const double seconds = MPI_Wtime() - start;
+  const long particles = sim.total_particles();  // collective
+  if (rank_ != 0) return;  // run.log only: a line per frame would crowd the progress output
+  std::error_code ec;
+  const double mb = double(std::filesystem::file_size(file, ec)) / 1e6;
+  log_ << "snapshot " << std::filesystem::path(file).filename().string() << ": " << particles << " particles, "
+       << mb << " MB in " << seconds << " s (" << (seconds > 0 ? mb / seconds : 0.0) << " MB/s)\n";
+  log_.flush();
+}
 
 void RunOutput::dump(const Simulation& sim, const std::string& tag) {
   const ParticleStore& p = sim.particles;
