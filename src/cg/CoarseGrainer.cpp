@@ -70,6 +70,18 @@ double gather_line(const Frame& f, const double* x, const double* branch, const 
   return total;
 }
 
+// Adds force_a branch_b int_0^1 psi(r - x + s branch) ds, normalised on the grid, to a 3x3 field.
+void add_line_stress(const Frame& f, const double* x, const double* branch, const double* force, const Grid& g,
+                     const Kernel& k, std::vector<Hit>& hits, std::vector<double>& field) {
+  hits.clear();
+  const double total = gather_line(f, x, branch, g, k, hits);
+  if (total <= 0) return;
+  const double scale = 1 / (total * g.cell_volume());
+  for (const Hit& h : hits)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) field[9 * h.point + 3 * a + b] += scale * h.w * force[a] * branch[b];
+}
+
 }  // namespace
 
 void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k,
@@ -102,20 +114,9 @@ void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& 
 }
 
 void accumulate_contacts(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out) {
-  const double dv = g.cell_volume();
   std::vector<Hit> hits;
-  for (std::size_t c = begin; c < end; ++c) {
-    const double* xi = &f.contact_x[3 * c];
-    const double* r = &f.contact_branch[3 * c];
-    const double* fc = &f.contact_force[3 * c];
-    hits.clear();
-    const double total = gather_line(f, xi, r, g, k, hits);  // from r_i to r_j
-    if (total <= 0) continue;
-    const double scale = 1 / (total * dv);
-    for (const Hit& h : hits)
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) out.contact[9 * h.point + 3 * a + b] += scale * h.w * fc[a] * r[b];
-  }
+  for (std::size_t c = begin; c < end; ++c)  // from r_i to r_j
+    add_line_stress(f, &f.contact_x[3 * c], &f.contact_branch[3 * c], &f.contact_force[3 * c], g, k, hits, out.contact);
 }
 
 void accumulate_walls(const Frame& f, std::size_t begin, std::size_t end, const Grid& g, const Kernel& k, Fields& out) {
@@ -130,13 +131,8 @@ void accumulate_walls(const Frame& f, std::size_t begin, std::size_t end, const 
     if (total > 0)
       for (const Hit& h : hits)
         for (int a = 0; a < 3; ++a) out.traction[3 * h.point + a] += h.w / (total * dv) * fc[a];
-    hits.clear();
     const double centre[3] = {pt[0] + b[0], pt[1] + b[1], pt[2] + b[2]};
-    const double line = gather_line(f, centre, b, g, k, hits);  // from r_i = c + b to c
-    if (line <= 0) continue;
-    for (const Hit& h : hits)
-      for (int a = 0; a < 3; ++a)
-        for (int bb = 0; bb < 3; ++bb) out.wall[9 * h.point + 3 * a + bb] += h.w / (line * dv) * fc[a] * b[bb];
+    add_line_stress(f, centre, b, fc, g, k, hits, out.wall);  // from r_i = c + b to c
   }
 }
 
