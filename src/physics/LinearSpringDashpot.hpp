@@ -128,7 +128,8 @@ class LinearSpringDashpot {
     if (xi) vrel -= a * p.omega[i].cross(n);
     const int sp = p.species[i];
     const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft);
-    torque = (-a * n).cross(ft);
+    if (xi) torque = (-a * n).cross(ft);  // frictionless walls exert no torque: skip the work
+    else torque.setZero();
     return f;
   }
 
