@@ -1,6 +1,7 @@
 #include "physics/ContactForces.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "core/Simulation.hpp"
 
@@ -30,23 +31,46 @@ void ContactForces::force(Simulation& sim) {
   const std::int64_t* ID = p.id.data();
   double overlap_sum = 0;
   long onsets = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
+  const std::size_t nlocal = p.nlocal;
+  // A pair of two owned particles is evaluated once, from its lower slot; the result is stored
+  // at the partner's mirror entry and read there in list order. The law is exactly antisymmetric
+  // (see LinearSpringDashpot), so this is bitwise the same as evaluating both sides.
+  if (mirror_.size() != nl.size()) build_mirrors(p, nl);
+  const std::uint32_t* MIRROR = mirror_.data();
+  MirrorResult* OUT = mirrored_.data();
+  for (std::size_t i = 0; i < nlocal; ++i) {
     const Vec3 xi = X[i], vi = V[i];
     const double ai = A[i], mi = M[i];
     const int si = S[i];
     Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero();
     for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
       const std::uint32_t j = partner[k];
+      if (j < i) {  // owned partner, already evaluated from j's side
+        if (!T[k]) continue;
+        const MirrorResult& r = OUT[k];
+        fsum += r.f;
+        if (fric) tsum += r.torque;
+        ++contacts;
+        overlap_sum += r.frac;
+        if (r.frac > worst) { worst = r.frac; worst_id = ID[i]; }
+        continue;
+      }
+      const std::uint32_t mk = MIRROR[k];  // kNoMirror for a ghost partner
       const Vec3 d = xi - X[j];
       const double r2 = d.squaredNorm(), R = ai + A[j];
       if (r2 >= R * R) {
         if (T[k]) {  // contact just ended: forget the spring (writes only on transitions)
           T[k] = 0;
           if (fric) XI[k].setZero();
+          if (mk != kNoMirror) {
+            T[mk] = 0;
+            if (fric) XI[mk].setZero();
+          }
         }
         continue;
       }
-      onsets += (!T[k] && ID[i] < ID[j]);  // the lower id counts the pair, wherever it lives
+      // A ghost pair is counted by the lower id, wherever it lives; an owned pair once, here.
+      onsets += !T[k] && (mk != kNoMirror || ID[i] < ID[j]);
       T[k] = 1;
       const double r = std::sqrt(r2);
       const Vec3 n = d / r;
@@ -54,14 +78,40 @@ void ContactForces::force(Simulation& sim) {
       const double mj = M[j];
       const double m = mi * mj / (mi + mj);
       Vec3 vrel = vi - V[j];
-      if (fric) vrel -= (ai * W[i] + A[j] * W[j]).cross(n);
+      // The lower id's term first: a fused multiply-add rounds the other product, so a fixed
+      // order is what makes the two sides' results exact negatives of each other.
+      if (fric) vrel -= (ID[i] < ID[j] ? ai * W[i] + A[j] * W[j] : A[j] * W[j] + ai * W[i]).cross(n);
       Vec3 ft;
-      fsum += law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft);
+      // Springs carried over from an independent two-sided evaluation (across a rank or
+      // periodic boundary before a migration) may differ in the last bits: then j's side is
+      // evaluated on its own spring, as j would.
+      const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k];
+      const Vec3 f = law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft);
+      fsum += f;
       if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
       ++contacts;
       const double frac = delta / std::min(ai, A[j]);
       overlap_sum += frac;
-      if (frac > worst) { worst = frac; worst_id = p.id[i]; }
+      if (frac > worst) { worst = frac; worst_id = ID[i]; }
+      if (mk != kNoMirror) {  // j's side: every quantity negated, exactly as j would compute it
+        T[mk] = 1;
+        MirrorResult& out = OUT[mk];
+        out.frac = frac;
+        if (!fric) {
+          out.f = -f;
+        } else {
+          const Vec3 nj = -n;
+          Vec3 ftj;
+          if (mirror_spring) {
+            out.f = -f;
+            ftj = -ft;
+            XI[mk] = -XI[k];
+          } else {
+            out.f = law_.force(law_.law(S[j], si), m, delta, nj, -vrel, &XI[mk], ftj);
+          }
+          out.torque = (-A[j] * nj).cross(ftj);
+        }
+      }
     }
     p.f[i] += fsum;
     if (fric) p.torque[i] += tsum;
@@ -114,7 +164,7 @@ void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& o
       const Vec3 n = d / r;
       const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
       Vec3 vrel = p.v[i] - p.v[j];
-      if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);
+      if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);  // id[i] < id[j], as in force()
       Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
       const Vec3 f = law_.force(law_.law(p.species[i], p.species[j]), m, R - r, n, vrel, fric ? &spring : nullptr, ft);
       out.push_back({p.id[i], p.id[j], p.x[i], d, f});
@@ -138,6 +188,20 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
     }
 }
 
+void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
+  // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
+  mirror_.assign(nl.size(), kNoMirror);
+  mirrored_.resize(nl.size());
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const std::uint32_t j = nl.partner[k];
+      if (j <= i || j >= p.nlocal) continue;
+      for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
+        if (nl.partner[q] == i) { mirror_[k] = q; break; }
+      if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");
+    }
+}
+
 void ContactForces::pre_rebuild(Simulation& sim) {
   // Without a list yet (first rebuild, or after a restart) keep what is in the stash.
   if (!law_.friction() || sim.neighbors.start.size() != sim.particles.nlocal + 1) return;
@@ -147,6 +211,7 @@ void ContactForces::pre_rebuild(Simulation& sim) {
 void ContactForces::post_rebuild(Simulation& sim) {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
+  build_mirrors(p, nl);
   // Pairs already touching across a rebuild are not new collisions.
   touching_.assign(nl.size(), 0);
   for (std::size_t i = 0; i < p.nlocal; ++i)

@@ -5,6 +5,8 @@
 #include <vector>
 
 #include "core/Module.hpp"
+#include "core/NeighborList.hpp"
+#include "core/ParticleStore.hpp"
 #include "parallel/HaloExchange.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
@@ -36,7 +38,18 @@ class ContactForces : public Module {
   long take_collisions() { const long c = collisions_; collisions_ = 0; return c; }
 
  private:
+  // Per list entry of an owned pair: the partner's entry for the same pair (kNoMirror when
+  // the partner is a ghost), and the partner-side result written when the pair is evaluated.
+  static constexpr std::uint32_t kNoMirror = 0xffffffffu;
+  struct MirrorResult {
+    Vec3 f, torque;
+    double frac;
+  };
+  void build_mirrors(const ParticleStore& p, const NeighborList& nl);
+
   LinearSpringDashpot law_;
+  std::vector<std::uint32_t> mirror_;
+  std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   double overlap_sum_ = 0;
