@@ -59,8 +59,11 @@ double temperature(Simulation& sim) {  // mean T_xx + T_yy relative to the shear
 TEST(HardCases, NearlyElasticShearedGasLevelsOff) {
   // e = 0.99 under Lees-Edwards shear (no Hill forces): viscous heating gamma_dot^2 nu is
   // balanced by the weak dissipation (1 - e^2) omega T, so the temperature has a bounded
-  // plateau. Started cold, the gas must heat fast at first (x5 in the first quarter of the
-  // run) and then level off (< 20 % in the last quarter) instead of running away.
+  // plateau. Started cold, the gas must heat fast at first (x5 in the first eighth of the
+  // run) and then level off instead of running away. The approach is slow (time constant
+  // ~0.6 s here) and one sample of ~400 particles is noisy, so the test runs 2 s and compares
+  // the mean over the last quarter with the quarter before: ~1.08 on a plateau approached
+  // exponentially, >= 1.4 for steady (linear) heating, more for a runaway. Bound: 1.2.
   const char* text = R"(
 seed = 5
 modules = ["contact"]
@@ -81,21 +84,27 @@ velocity_sigma = 0.05
 shear_flow = true
 [time]
 n_c = 50
-end = 1.0
+end = 2.0
 )";
   auto sim = make_sim(text);
   sim->setup();
   const double T_start = temperature(*sim);
   std::vector<double> T;
-  for (int k = 0; k < 16; ++k) {
+  for (int k = 0; k < 32; ++k) {  // 32 samples, 1/16 s apart
     for (int s = 0; s < 20000; ++s) sim->step();
     T.push_back(temperature(*sim));
   }
-  std::printf("e = 0.99 sheared gas: T start %.3e, quarters %.3e %.3e %.3e %.3e m^2/s^2\n", T_start, T[3], T[7], T[11],
-              T[15]);
-  ASSERT_TRUE(std::isfinite(T[15]));
+  auto mean = [&](int from, int to) {
+    double m = 0;
+    for (int k = from; k < to; ++k) m += T[k];
+    return m / (to - from);
+  };
+  const double third = mean(16, 24), fourth = mean(24, 32);
+  std::printf("e = 0.99 sheared gas: T start %.3e, at 0.25 s %.3e, mean over (1, 1.5] s %.3e, (1.5, 2] s %.3e m^2/s^2\n",
+              T_start, T[3], third, fourth);
+  ASSERT_TRUE(std::isfinite(T[31]));
   EXPECT_GT(T[3] / T_start, 5.0);
-  EXPECT_LT(T[15] / T[11], 1.2);
+  EXPECT_LT(fourth / third, 1.2);
 }
 
 TEST(HardCases, NearlyElasticRingGasStaysFiniteOverAnOrbit) {

@@ -266,15 +266,13 @@ Vec3 FlowField::velocity(const Vec3& x) const {
     c[d] = static_cast<int>(s);
     f[d] = s - c[d];
   }
-  Vec3 out = Vec3::Zero();
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b)
-      for (int e = 0; e < 2; ++e) {
-        const double wgt = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
-        const std::size_t n = (std::size_t(c[0] + a) * n_[1] + c[1] + b) * n_[2] + c[2] + e;
-        out += wgt * node_[n];
-      }
-  return out;
+  // Trilinear as nested linear interpolations: z, then y, then x.
+  const std::size_t sz = 1, sy = n_[2], sx = std::size_t(n_[1]) * n_[2];
+  const Vec3* p = &node_[c[0] * sx + c[1] * sy + c[2]];
+  auto lerp = [](const Vec3& a, const Vec3& b, double t) { return a + t * (b - a); };
+  const Vec3 y0 = lerp(lerp(p[0], p[sz], f[2]), lerp(p[sy], p[sy + sz], f[2]), f[1]);
+  const Vec3 y1 = lerp(lerp(p[sx], p[sx + sz], f[2]), lerp(p[sx + sy], p[sx + sy + sz], f[2]), f[1]);
+  return lerp(y0, y1, f[0]);
 }
 
 }  // namespace cassini

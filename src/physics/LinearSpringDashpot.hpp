@@ -11,8 +11,11 @@
 // capped by Coulomb (|f_t| <= mu_s f_n static; on sliding |f_t| = mu_d f_n and xi reset so
 // that k_t |xi| = mu_d f_n).
 //
-// Every operation is written so that evaluating the pair from j's side gives exactly the
-// negated result (bitwise): the force on each side is computed independently.
+// Every operation is sign-symmetric, so that evaluating the pair from j's side (negated n,
+// vrel and spring) gives exactly the negated result, bitwise, provided no product is fused
+// into an add (ContactForces.cpp is compiled with -ffp-contract=off). ContactForces relies on
+// this to evaluate a pair of owned particles once, and a pair across a rank boundary from
+// both sides, with the same trajectory on any number of ranks.
 #include <cmath>
 #include <numbers>
 #include <vector>

@@ -26,19 +26,34 @@ VolumeFraction::VolumeFraction(const ChannelGeometry& geo, double x0, double x1,
 template <class F>
 void VolumeFraction::for_nodes(double x, double y, F&& f) const {
   const int ci = static_cast<int>(std::lround((x - x0_) / h_)), cj = static_cast<int>(std::lround((y - y0_) / h_));
+  const int i0 = std::max(0, ci - reach_), i1 = std::min(nx_ - 1, ci + reach_);
+  const int j0 = std::max(0, cj - reach_), j1 = std::min(ny_ - 1, cj + reach_);
+  const double inv = 1 / (2 * width_ * width_), cut2 = 9 * width_ * width_;
+  // The Gaussian factorises: 2 x 25 exponentials per particle instead of 25 x 25.
+  wx_.resize(i1 - i0 + 1);
+  wy_.resize(j1 - j0 + 1);
+  for (int i = i0; i <= i1; ++i) {
+    const double dx = x0_ + i * h_ - x;
+    wx_[i - i0] = std::exp(-dx * dx * inv);
+  }
+  for (int j = j0; j <= j1; ++j) {
+    const double dy = y0_ + j * h_ - y;
+    wy_[j - j0] = std::exp(-dy * dy * inv);
+  }
   scratch_.clear();
   double norm = 0;
-  const double inv = 1 / (2 * width_ * width_), cut2 = 9 * width_ * width_;
-  for (int i = std::max(0, ci - reach_); i <= std::min(nx_ - 1, ci + reach_); ++i)
-    for (int j = std::max(0, cj - reach_); j <= std::min(ny_ - 1, cj + reach_); ++j) {
+  for (int i = i0; i <= i1; ++i) {
+    const double dx = x0_ + i * h_ - x;
+    for (int j = j0; j <= j1; ++j) {
       const int n = i * ny_ + j;
       if (!fluid_[n]) continue;
-      const double dx = x0_ + i * h_ - x, dy = y0_ + j * h_ - y, r2 = dx * dx + dy * dy;
-      if (r2 > cut2) continue;
-      const double w = std::exp(-r2 * inv);
+      const double dy = y0_ + j * h_ - y;
+      if (dx * dx + dy * dy > cut2) continue;
+      const double w = wx_[i - i0] * wy_[j - j0];
       scratch_.emplace_back(n, w);
       norm += w;
     }
+  }
   if (norm > 0)
     for (const auto& [n, w] : scratch_) f(n, w / norm);
 }

@@ -37,6 +37,7 @@ class VolumeFraction {
   std::vector<double> phi_;
   std::vector<std::int64_t> sum_, total_;
   mutable std::vector<std::pair<int, double>> scratch_;
+  mutable std::vector<double> wx_, wy_;  // the kernel's x and y factors around one particle
 };
 
 }  // namespace cassini
