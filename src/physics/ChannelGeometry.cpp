@@ -55,6 +55,20 @@ void ChannelGeometry::vertex_contact(int k, double x, double y, double reach, st
   if (d < reach && d > 0) out.push_back({static_cast<int>(faces_.size()) + k, d, px / d, py / d});
 }
 
+std::uint64_t ChannelGeometry::near_features(double x, double y, double reach) const {
+  std::uint64_t near = 0;
+  const int nf = static_cast<int>(faces_.size());
+  for (int k = 0; k < nf; ++k) {
+    const Face& f = faces_[k];
+    const double px = x - f.x0, py = y - f.y0;
+    const double t = std::clamp(px * f.tx + py * f.ty, f.open0 ? -1e300 : 0.0, f.open1 ? 1e300 : f.len);
+    if (std::hypot(px - t * f.tx, py - t * f.ty) < reach) near |= std::uint64_t{1} << k;
+  }
+  for (int k = 0; k < static_cast<int>(vertices_.size()); ++k)
+    if (std::hypot(x - vertices_[k].x, y - vertices_[k].y) < reach) near |= std::uint64_t{1} << (nf + k);
+  return near;
+}
+
 void ChannelGeometry::contacts(double x, double y, double reach, std::vector<WallContact>& out) const {
   const int nf = static_cast<int>(faces_.size());
   if (reach <= bin_reach_) {

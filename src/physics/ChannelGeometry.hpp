@@ -6,6 +6,7 @@
 // pushed twice by one corner, and the force is continuous when it rolls from a face onto an
 // edge. At a concave corner that region lies behind the walls: there the sphere feels both
 // faces, as it should.
+#include <cstdint>
 #include <vector>
 
 #include "physics/ChannelConfig.hpp"
@@ -32,6 +33,15 @@ class ChannelGeometry {
   int features() const { return static_cast<int>(faces_.size() + vertices_.size()); }
   // Every feature within `reach` of the centre (x, y), appended to out.
   void contacts(double x, double y, double reach, std::vector<WallContact>& out) const;
+  // Feature k alone (same test as contacts()).
+  void feature_contact(int k, double x, double y, double reach, std::vector<WallContact>& out) const {
+    const int nf = static_cast<int>(faces_.size());
+    k < nf ? face_contact(k, x, y, reach, out) : vertex_contact(k - nf, x, y, reach, out);
+  }
+  // Bit k set when feature k itself (the segment, or the edge's point) is within `reach` of
+  // (x, y), whatever region the point lies in: a superset of what contacts() can return for
+  // any point closer than reach - r0 to (x, y) at a reach r0. Faces and edges up to 64.
+  std::uint64_t near_features(double x, double y, double reach) const;
   // Speeds up contacts() for reaches up to `reach`: candidate features per x bin over [x0, x1]
   // (in a straight stretch only the two side faces can be touched).
   void index(double reach, double x0, double x1);

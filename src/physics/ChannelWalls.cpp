@@ -1,6 +1,8 @@
 #include "physics/ChannelWalls.hpp"
 
+#include <bit>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/Simulation.hpp"
 
@@ -9,24 +11,45 @@ namespace cassini {
 ChannelWalls::ChannelWalls(const Config& cfg, double dt, int first_slot)
     : law_(cfg, dt), geometry_(cfg.channel), first_slot_(first_slot) {
   geometry_.index(cfg.max_radius(), cfg.lo[0], cfg.hi[0]);
+  if (geometry_.features() > 64) throw std::runtime_error("channel: more than 64 wall faces and edges");
+}
+
+void ChannelWalls::post_rebuild(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const bool fric = law_.friction();
+  const int nf = geometry_.features();
+  candidates_.assign(p.nlocal, 0);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    // Between rebuilds a particle moves less than skin / 2.
+    candidates_[i] = geometry_.near_features(p.x[i][0], p.x[i][1], p.radius[i] + sim.skin);
+    // A spring of a feature out of reach is zero already (it was not touched at the last
+    // step); clearing it here keeps that true without a per-step sweep over every feature.
+    if (fric) {
+      Vec3* xi = &p.wall_xi[i * p.walls + first_slot_];
+      for (int k = 0; k < nf; ++k)
+        if (!(candidates_[i] >> k & 1)) xi[k].setZero();
+    }
+  }
 }
 
 void ChannelWalls::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
+  if (candidates_.size() != p.nlocal) post_rebuild(sim);
   const bool fric = law_.friction();
-  const int nf = geometry_.features();
   double worst = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const std::uint64_t cand = candidates_[i];
+    if (!cand) continue;
     const double a = p.radius[i];
     touching_.clear();
-    geometry_.contacts(p.x[i][0], p.x[i][1], a, touching_);
+    for (std::uint64_t m = cand; m; m &= m - 1)  // ascending feature order, as contacts() gives
+      geometry_.feature_contact(std::countr_zero(m), p.x[i][0], p.x[i][1], a, touching_);
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + first_slot_] : nullptr;
     // Springs of features no longer touched relax to zero (a new contact starts unloaded).
     if (fric) {
-      unsigned long touched = 0;
-      for (const auto& c : touching_) touched |= 1ul << c.feature;
-      for (int k = 0; k < nf; ++k)
-        if (!(touched >> k & 1)) xi[k].setZero();
+      std::uint64_t touched = 0;
+      for (const auto& c : touching_) touched |= std::uint64_t{1} << c.feature;
+      for (std::uint64_t m = cand & ~touched; m; m &= m - 1) xi[std::countr_zero(m)].setZero();
     }
     for (const auto& c : touching_) {
       if (c.distance <= 0) {

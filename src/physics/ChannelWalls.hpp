@@ -2,6 +2,7 @@
 // Particle contacts with the channel's side walls (ChannelGeometry): the same LSD law and
 // Coulomb friction as particle-particle contacts, the wall taken as an infinite mass. Each
 // wall feature has its own tangential-history slot per particle, after the domain's planes.
+#include <cstdint>
 #include <vector>
 
 #include "core/Module.hpp"
@@ -14,8 +15,9 @@ class ChannelWalls : public Module {
  public:
   ChannelWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
-  unsigned stages() const override { return kForce; }
+  unsigned stages() const override { return kForce | kRebuild; }
   void force(Simulation& sim) override;
+  void post_rebuild(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   double max_overlap_fraction() const { return max_overlap_; }
   const ChannelGeometry& geometry() const { return geometry_; }
@@ -26,6 +28,9 @@ class ChannelWalls : public Module {
   int first_slot_;
   double max_overlap_ = 0;
   std::vector<WallContact> touching_;
+  // Per particle, the features within its radius + skin at the last rebuild: the only ones it
+  // can touch before the next (most beads are far from every side wall). One bit per feature.
+  std::vector<std::uint64_t> candidates_;
 };
 
 }  // namespace cassini
