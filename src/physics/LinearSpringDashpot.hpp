@@ -88,7 +88,8 @@ class LinearSpringDashpot {
   // Force on body i. n: unit normal pointing from the partner to i; delta: overlap;
   // vrel: velocity of i's contact point relative to the partner's; m: reduced mass.
   // Returns the total force; ft receives the tangential part (for the torque).
-  Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi, Vec3& ft) const {
+  [[gnu::always_inline]] Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi,
+                                     Vec3& ft) const {
     const double vn = vrel.dot(n);
     double fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
     if (clip_ && fn < 0) fn = 0;
