@@ -39,6 +39,7 @@ class Simulation {
   // a restart (which starts with a rebuild) continues bitwise like the uninterrupted run.
   void rebuild();
   bool restored = false;  // state (including F) came from a snapshot
+  bool restart_point = false;  // true during the rebuild a snapshot makes (a restart from it starts alike)
   void step();
   // Steps to cfg.t_end; with `out`, prints progress and writes observables and dumps.
   void run(RunOutput* out = nullptr);

@@ -108,7 +108,9 @@ std::int64_t bits_id(double d) { std::int64_t i; std::memcpy(&i, &d, 8); return 
 
 std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  sim.rebuild();  // a restart starts with a rebuild: do the same here so both continue alike
+  sim.restart_point = true;  // a restart starts with a rebuild (and module setup): do the same
+  sim.rebuild();             // here, so that both continue alike
+  sim.restart_point = false;
   const ParticleStore& p = sim.particles;
   const Decomposition& dom = sim.domain;
   const int P = dom.nranks;

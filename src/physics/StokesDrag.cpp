@@ -27,8 +27,12 @@ void StokesDrag::setup(Simulation& sim) {
 
 void StokesDrag::refresh(Simulation& sim) {
   // phi, and with it the relaxation factor, is held between refreshes: compute it once here.
+  phi_field_.update(sim.particles, sim.domain.comm);
+  sample(sim);
+}
+
+void StokesDrag::sample(Simulation& sim) {
   const ParticleStore& p = sim.particles;
-  phi_field_.update(p, sim.domain.comm);
   phi_.resize(p.nlocal);
   factor_.resize(p.nlocal);
   const double c = 6 * std::numbers::pi * viscosity_;
@@ -46,7 +50,12 @@ void StokesDrag::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) co
 }
 
 void StokesDrag::post_rebuild(Simulation& sim) {
-  if (flow_) refresh(sim);  // slots were reordered (and particles may have come or gone)
+  // Slots were reordered and particles may have come or gone: sample the held phi field again.
+  // The field itself is refreshed on its schedule, and at a snapshot, which is where a
+  // restart recomputes it (setup) - so a restarted run continues bitwise.
+  if (!flow_) return;
+  if (sim.restart_point) refresh(sim);
+  else sample(sim);
 }
 
 void StokesDrag::force(Simulation& sim) {

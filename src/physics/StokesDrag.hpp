@@ -37,7 +37,8 @@ class StokesDrag : public Module {
   double phi_of(std::size_t i) const { return phi_[i]; }
 
  private:
-  void refresh(Simulation& sim);
+  void refresh(Simulation& sim);  // the phi field from the particles, then sample()
+  void sample(Simulation& sim);   // phi and the relaxation factor per particle from the held field
   const Config& cfg_;
   std::string voidage_;
   double viscosity_;
