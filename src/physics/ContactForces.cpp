@@ -34,7 +34,8 @@ void ContactForces::force(Simulation& sim) {
   const std::size_t nlocal = p.nlocal;
   // A pair of two owned particles is evaluated once, from its lower slot; the result is stored
   // at the partner's mirror entry and read there in list order. The law is exactly antisymmetric
-  // (see LinearSpringDashpot), so this is bitwise the same as evaluating both sides.
+  // (see LinearSpringDashpot), so this is bitwise the same as evaluating both sides (springs
+  // that are not exact negatives, see mirror_spring below, are evaluated on both sides).
   if (mirror_.size() != nl.size()) build_mirrors(p, nl);
   const std::uint32_t* MIRROR = mirror_.data();
   MirrorResult* OUT = mirrored_.data();
