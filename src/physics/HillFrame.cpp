@@ -28,7 +28,10 @@ void HillFrame::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   if (!exact_) {
     const double k = 3 * omega_ * omega_;
-    for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i][1] += p.mass[i] * k * p.x[i][1];
+    const Vec3* X = p.x.data();  // raw views: the stores to f could alias the vectors' pointers
+    const double* M = p.mass.data();
+    Vec3* F = p.f.data();
+    for (std::size_t i = 0; i < p.nlocal; ++i) F[i][1] += M[i] * k * X[i][1];
     return;
   }
   for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * acceleration(p.x[i]);

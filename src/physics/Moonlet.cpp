@@ -10,30 +10,46 @@ Moonlet::Moonlet(const Config& cfg, double dt)
     : law_(cfg, dt), gm_(kGravitationalConstant * cfg.moonlet_mass), radius_(cfg.moonlet_radius),
       dims_(cfg.planar ? 2 : 3) {}
 
+// Scalar components on purpose (no `r[2] = 0` on an Eigen vector): patching one lane goes
+// through the stack and stalls store-to-load forwarding in this once-per-particle loop.
 Vec3 Moonlet::gravity(const Vec3& x) const {
-  Vec3 r = x;
-  if (dims_ == 2) r[2] = 0;
-  const double d = r.norm();
-  if (d >= radius_) return (-gm_ / (d * d * d)) * r;
-  return (-gm_ / (radius_ * radius_ * radius_)) * r;  // uniform interior: finite at the centre
+  const double z = dims_ == 2 ? 0.0 : x[2];
+  const double d = std::sqrt(x[0] * x[0] + x[1] * x[1] + z * z);
+  const double s = d >= radius_ ? -gm_ / (d * d * d) : -gm_ / (radius_ * radius_ * radius_);  // uniform interior
+  return Vec3(s * x[0], s * x[1], s * z);
 }
 
 void Moonlet::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   const bool fric = law_.friction();
+  const bool planar = dims_ == 2;
+  // Raw views and two passes: gravity for everyone (a branch-free loop the compiler
+  // vectorises), then the rare contacts with the moonlet's surface.
+  const Vec3* X = p.x.data();
+  Vec3* F = p.f.data();
+  const double* M = p.mass.data();
+  const double* A = p.radius.data();
+  const std::size_t n = p.nlocal;
+  const double R = radius_, gm = gm_;  // locals: the stores to F could alias the members
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
+    const double d = std::max(std::sqrt(x * x + y * y + z * z), R);  // inside: the uniform sphere's G M r / R^3
+    const double s = M[i] * (-gm / (d * d * d));
+    F[i][0] += s * x;
+    F[i][1] += s * y;
+    F[i][2] += s * z;
+  }
   double worst = 0;
   long contacts = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    p.f[i] += p.mass[i] * gravity(p.x[i]);
-    Vec3 r = p.x[i];
-    if (dims_ == 2) r[2] = 0;
-    const double d = r.norm(), a = p.radius[i];
-    if (d >= radius_ + a || d == 0) continue;
-    const double delta = radius_ + a - d;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
+    const double d2 = x * x + y * y + z * z, reach = R + A[i];
+    if (d2 >= reach * reach || d2 == 0) continue;
+    const double d = std::sqrt(d2), delta = reach - d;
     Vec3 xi = Vec3::Zero(), torque;  // the moonlet is frictionless in the ring scene; no history kept
-    p.f[i] += law_.wall_force(p, i, r / d, delta, fric ? &xi : nullptr, torque);
+    F[i] += law_.wall_force(p, i, Vec3(x, y, z) / d, delta, fric ? &xi : nullptr, torque);
     if (fric) p.torque[i] += torque;
-    worst = std::max(worst, delta / a);
+    worst = std::max(worst, delta / A[i]);
     ++contacts;
   }
   max_overlap_ = worst;

@@ -22,7 +22,6 @@ class VelocityVerlet : public Module {
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
  private:
-  void rotate_velocities(Simulation& sim) const;
   bool planar_;
   double omega_ = 0;
 };
