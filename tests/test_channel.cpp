@@ -15,6 +15,7 @@
 #include "physics/FlowField.hpp"
 #include "physics/Inlet.hpp"
 #include "physics/StokesDrag.hpp"
+#include "physics/VolumeFraction.hpp"
 
 using namespace cassini;
 using namespace cassini::test;
@@ -90,6 +91,51 @@ TEST(StokesDrag, IsolatedBeadRelaxesToTheFluidWithTheStokesTime) {
   // The velocity is exact at half steps; at full steps it lags by beta dt / 2 at most.
   EXPECT_LT(worst, sim->dt / tau);
   EXPECT_GT(sim->particles.v[0][0], 0.8 * u[0]);
+}
+
+// The drag's phi field (Gaussian, width w, nodes every w/4). A bead at the centre of every
+// node cell of a patch deposits a field that is uniform in the patch's bulk: the weights a
+// node receives from its neighbouring beads are the weights one bead gives its neighbouring
+// nodes, normalised to 1, so phi = V / (h^2 H) exactly (to the 2^-50 fixed point). Cell
+// centres, not nodes: no offset then lies on the 3 w cut (12 h), where round-off would decide.
+// The field integrates to the beads' total volume whatever their arrangement.
+TEST(VolumeFraction, BeadInEveryNodeCellGivesUniformPhiAndTheFieldHoldsTheVolume) {
+  const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
+  ChannelGeometry geo(cfg.channel);
+  const double w = 2e-5, H = cfg.hi[2] - cfg.lo[2];
+  VolumeFraction vf(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, w);
+  const double h = vf.node_spacing(), a = 4e-6, V = 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  ParticleStore p;
+  for (int i = 8; i <= 60; ++i)  // x in [-5.6e-4, -3.0e-4]: the straight part upstream
+    for (int j = 2; j <= 78; ++j) p.add(p.size(), 0, a, 1.0, Vec3(cfg.lo[0] + (i + 0.5) * h, cfg.lo[1] + (j + 0.5) * h, 5e-5), Vec3::Zero());
+  p.nlocal = p.size();
+  vf.update(p, MPI_COMM_WORLD);
+  EXPECT_NEAR(vf.integral(), p.size() * V, 1e-12 * p.size() * V);
+  const double expected = V / (h * h * H);
+  // On and between nodes; > 6 w from the walls: the beads feeding them must not have their
+  // own kernels clipped (and renormalised) by a wall, and > 3 w from the patch's edges.
+  for (double x : {-4.3e-4, -4.3e-4 + 0.37 * h, -4.0e-4 + 0.81 * h})
+    for (double y : {0.0, 0.52 * h, -0.6e-4 + 0.2 * h})
+      EXPECT_NEAR(vf.at(x, y), expected, 1e-11 * expected) << "at (" << x << ", " << y << ")";
+}
+
+// A lone bead's own phi is the field's peak, V / (2 pi w^2 H): kernel width w, not the
+// sqrt(2) w a second kernel average at the bead would give (half that peak). 0.5 %: the
+// node sum replaces the Gaussian's integral over the 3 w disk, 2 pi w^2 (1 - e^-4.5), up to
+// the ragged edge of the disk, a ring of nodes each weighing e^-4.5 / (2 pi 16) of the total.
+TEST(VolumeFraction, LoneBeadSeesTheKernelPeakOfWidthW) {
+  const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
+  ChannelGeometry geo(cfg.channel);
+  const double w = cfg.channel.phi_width, H = cfg.hi[2] - cfg.lo[2];
+  VolumeFraction vf(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, 0.5 * w);  // 3 w inside the channel
+  const double a = cfg.species[0].radius_min, V = 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  ParticleStore p;
+  const Vec3 centre(-4.0e-4, 0.0, 5e-5);
+  p.add(0, 0, a, 1.0, centre, Vec3::Zero());
+  p.nlocal = 1;
+  vf.update(p, MPI_COMM_WORLD);
+  const double s = 0.5 * w;
+  EXPECT_NEAR(vf.at(centre[0], centre[1]) / (V / (2 * std::numbers::pi * s * s * H * (1 - std::exp(-4.5)))), 1.0, 5e-3);
 }
 
 TEST(StokesDrag, VoidageFunctionsHaveTheirLimits) {
@@ -193,7 +239,9 @@ TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
 TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
   // Beads wider than the neck pile up behind it under the drag (phi ~ 0.6, voidage ~ 40x) and
   // must stay there, bounded, for the whole 1 s clog window: no guard trips (overlap < 20 %,
-  // finite state), overlaps stay small and nothing moves faster than the fluid.
+  // finite state), overlaps stay well inside the guard (under half of it; this test's
+  // t_c = 1e-4 s is 2.5x the case's, so its overlaps are ~6x the case's) and nothing moves
+  // faster than the fluid.
   auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=1.0", "time.end=3.0", "clog.rest_speed=0"});
   sim->setup();
   double worst_overlap = 0, fastest = 0;
@@ -207,6 +255,6 @@ TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
   const auto* clog = sim->find<ClogMonitor>();
   EXPECT_TRUE(clog->clogged());
   EXPECT_GT(sim->total_particles(), 30);  // a real pile, not a lone bead
-  EXPECT_LT(worst_overlap, 0.05);
+  EXPECT_LT(worst_overlap, 0.10);
   EXPECT_LT(fastest, 4 * 4 * 1.47e-3);    // below the neck's peak fluid speed
 }

@@ -1,5 +1,6 @@
 #include "physics/VolumeFraction.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -74,7 +75,26 @@ void VolumeFraction::update(const ParticleStore& p, MPI_Comm comm) {
 }
 
 double VolumeFraction::at(double x, double y) const {
-  double phi = 0;
+  // Bilinear in the node field, which already is the kernel average: a second kernel mean
+  // here would smooth twice (an effective width sqrt(2) w instead of w).
+  const double s = (x - x0_) / h_, t = (y - y0_) / h_;
+  const int i = std::clamp(static_cast<int>(std::floor(s)), 0, nx_ - 2);
+  const int j = std::clamp(static_cast<int>(std::floor(t)), 0, ny_ - 2);
+  const double fx = std::clamp(s - i, 0.0, 1.0), fy = std::clamp(t - j, 0.0, 1.0);
+  // Only fluid nodes count: nodes inside a wall receive no volume (the deposit is normalised
+  // over the fluid nodes), so including them would dilute phi next to the walls.
+  double num = 0, den = 0;
+  auto add = [&](int n, double w) {
+    if (!fluid_[n]) return;
+    num += w * phi_[n];
+    den += w;
+  };
+  add(i * ny_ + j, (1 - fx) * (1 - fy));
+  add(i * ny_ + j + 1, (1 - fx) * fy);
+  add((i + 1) * ny_ + j, fx * (1 - fy));
+  add((i + 1) * ny_ + j + 1, fx * fy);
+  if (den > 1e-3) return num / den;
+  double phi = 0;  // no fluid node around (x, y), e.g. deep in a corner: the kernel mean
   for_nodes(x, y, [&](int n, double w) { phi += w * phi_[n]; });
   return phi;
 }

@@ -4,8 +4,8 @@
 // high, so phi is depth-averaged: a 2D field over (x, y) on nodes spaced width/4 inside the
 // fluid. Each particle spreads its volume over the fluid nodes within 3 widths with Gaussian
 // weights normalised to 1 on those nodes (so walls do not swallow volume and the field
-// integrates to the particles' volume exactly); its own phi is the same weighted mean of the
-// node values. Node sums are accumulated in 64-bit fixed point across ranks: integer sums do
+// integrates to the particles' volume exactly); a particle's own phi is the field at its
+// centre, interpolated bilinearly from the surrounding fluid nodes. Node sums are accumulated in 64-bit fixed point across ranks: integer sums do
 // not depend on the order, so phi is bitwise the same on any number of ranks.
 #include <cstdint>
 #include <vector>
@@ -22,7 +22,7 @@ class VolumeFraction {
   VolumeFraction(const ChannelGeometry& geo, double x0, double x1, double y0, double y1, double height, double width);
   // Recomputes the node field from the owned particles of every rank (collective).
   void update(const ParticleStore& p, MPI_Comm comm);
-  // phi seen by a particle at (x, y): its kernel's mean of the node field.
+  // phi seen by a particle at (x, y): the node field interpolated bilinearly over fluid nodes.
   double at(double x, double y) const;
   double node_spacing() const { return h_; }
   // Sum of phi * node area * height over the nodes: the particles' total volume.
