@@ -14,8 +14,7 @@ Moonlet::Moonlet(const Config& cfg, double dt)
 // through the stack and stalls store-to-load forwarding in this once-per-particle loop.
 Vec3 Moonlet::gravity(const Vec3& x) const {
   const double z = dims_ == 2 ? 0.0 : x[2];
-  const double d = std::sqrt(x[0] * x[0] + x[1] * x[1] + z * z);
-  const double s = d >= radius_ ? -gm_ / (d * d * d) : -gm_ / (radius_ * radius_ * radius_);  // uniform interior
+  const double s = gravity_scale(x[0] * x[0] + x[1] * x[1] + z * z, gm_, radius_);
   return Vec3(s * x[0], s * x[1], s * z);
 }
 
@@ -30,11 +29,10 @@ void Moonlet::force(Simulation& sim) {
   const double* M = p.mass.data();
   const double* A = p.radius.data();
   const std::size_t n = p.nlocal;
-  const double R = radius_, gm = gm_;  // locals: the stores to F could alias the members
+  const double gm = gm_, R = radius_;
   for (std::size_t i = 0; i < n; ++i) {
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
-    const double d = std::max(std::sqrt(x * x + y * y + z * z), R);  // inside: the uniform sphere's G M r / R^3
-    const double s = M[i] * (-gm / (d * d * d));
+    const double s = M[i] * gravity_scale(x * x + y * y + z * z, gm, R);
     F[i][0] += s * x;
     F[i][1] += s * y;
     F[i][2] += s * z;

@@ -5,6 +5,9 @@
 //
 // Inside the moonlet's radius the gravity is that of a uniform sphere, -G M r / R^3, so a
 // particle pushed into it (or aimed at its centre) feels a finite force: no r -> 0 blow-up.
+#include <algorithm>
+#include <cmath>
+
 #include "core/Config.hpp"
 #include "core/Module.hpp"
 #include "physics/LinearSpringDashpot.hpp"
@@ -25,6 +28,13 @@ class Moonlet : public Module {
   long contacts() const { return contacts_; }
 
  private:
+  // Acceleration / r at squared distance d2: -G M / max(d, R)^3 (inside, the uniform sphere).
+  // Branch-free and on plain values (no members: stores to the forces could alias them), so
+  // the per-particle gravity loop vectorises.
+  static double gravity_scale(double d2, double gm, double R) {
+    const double d = std::max(std::sqrt(d2), R);
+    return -gm / (d * d * d);
+  }
   LinearSpringDashpot law_;
   double gm_, radius_;
   int dims_;

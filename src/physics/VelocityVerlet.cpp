@@ -34,7 +34,7 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   auto advance = [&](std::size_t i) {
     const double k = h * IM[i];
     double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1], vz = planar ? 0.0 : V[i][2] + k * F[i][2];
-    if (rotating) {
+    if (rotating) {  // Coriolis, dv/dt = 2 omega (vy, -vx) over dt/2: a clockwise rotation by omega dt
       const double rx = c * vx + s * vy, ry = c * vy - s * vx;
       vx = rx;
       vy = ry;
