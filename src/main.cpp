@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include <CLI/CLI.hpp>
+#include <hdf5.h>
 #include <mpi.h>
 
 #include "core/CaseFile.hpp"
@@ -42,26 +43,31 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = rank == 0 ? app.exit(e) : (e.get_exit_code() ? 1 : 0);
+    // --help prints and succeeds; every command-line error exits 2, like a bad case file.
+    const int shown = rank == 0 ? app.exit(e) : e.get_exit_code();
     MPI_Finalize();
-    return code;
+    return shown == 0 ? 0 : 2;
   }
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // HDF5 failures are reported by cassini, once
 
   int code = 0;
+  std::unique_ptr<RunOutput> out_ptr;  // once the output directory exists, errors go to its run.log too
   try {
     std::string file = case_path;
     if (fs::is_directory(case_path)) file = (fs::path(case_path) / "case.toml").string();
     CaseFile cf = CaseFile::load(file, overrides);
     const Config cfg = read_config(cf);
+    if (ensemble > 0 && !restart.empty()) throw ConfigError("--ensemble and --restart cannot be combined");
+    if (!restart.empty()) check_restart_case(restart, cf);  // before anything is created
     if (out_dir.empty()) out_dir = "runs/" + fs::path(file).parent_path().filename().string();
-    RunOutput out(out_dir, force, MPI_COMM_WORLD);
+    out_ptr = std::make_unique<RunOutput>(out_dir, force, MPI_COMM_WORLD, std::vector<std::string>{file, restart});
+    RunOutput& out = *out_ptr;
     std::ostringstream resolved;
     resolved << cf.table();
     out.write_text("case.toml", resolved.str() + "\n");
     out.case_text = resolved.str();
 
     if (ensemble > 0) {
-      if (!restart.empty()) throw ConfigError("--ensemble and --restart cannot be combined");
       out.log("cassini: " + file + ": ensemble of " + std::to_string(ensemble) + " runs on " + std::to_string(nranks) +
               " rank(s), one whole run per rank at a time");
       run_ensemble(cfg, ensemble, out);
@@ -90,25 +96,39 @@ int main(int argc, char** argv) {
     }
     const auto t0 = std::chrono::steady_clock::now();
     const long start = sim.step_count;
+    std::string status = "completed", reason = "reached time.end";
     try {
       sim.run(&out);
+      if (sim.finished) reason = sim.finish_reason;
     } catch (const GuardError& e) {
-      out.log(std::string("STOPPED: ") + e.what() + "\ndiagnostic dump written to " + out_dir + "/dump/");
+      out.log(std::string("STOPPED: ") + e.what() + "\ndiagnostic dump (the state of that step) written to " +
+              out_dir + "/dump/");
+      status = "stopped by a guard";
+      reason = e.what();
       code = 3;
     }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    out.summary(sim, wall, sim.step_count - start);
+    out.summary(sim, wall, sim.step_count - start, status, reason);
     std::ostringstream tail;
     tail << "done: " << sim.step_count - start << " steps, " << sim.total_particles() << " particles, " << wall
          << " s wall, " << double(sim.total_particles()) * (sim.step_count - start) / wall
          << " particle-steps/s; " << sim.rebuilds << " neighbour rebuilds\noutput: " << out_dir
          << "/ (run.log, observables.csv, summary.json, dump/)";
     out.log(tail.str());
-  } catch (const ConfigError& e) {
+  } catch (const ConfigError& e) {  // thrown alike on every rank
     if (rank == 0) std::cerr << "error: " << e.what() << std::endl;
+    if (out_ptr) {
+      out_ptr->log_only(std::string("error: ") + e.what());
+      out_ptr->error_summary(e.what());
+    }
     code = 2;
-  } catch (const std::exception& e) {
+  } catch (const std::bad_alloc&) {
+    std::cerr << "error (rank " << rank << "): out of memory" << std::endl;
+    if (out_ptr) out_ptr->log_only("error: out of memory on rank " + std::to_string(rank));
+    MPI_Abort(MPI_COMM_WORLD, 4);
+  } catch (const std::exception& e) {  // possibly on one rank only: the others cannot be waited for
     std::cerr << "error (rank " << rank << "): " << e.what() << std::endl;
+    if (out_ptr) out_ptr->log_only(std::string("error (rank ") + std::to_string(rank) + "): " + e.what());
     MPI_Abort(MPI_COMM_WORLD, 4);
   }
   MPI_Finalize();

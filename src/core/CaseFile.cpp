@@ -1,6 +1,9 @@
 #include "core/CaseFile.hpp"
 
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -103,6 +106,31 @@ void collect_leaves(const toml::node& n, std::vector<std::string>& path, std::ve
   }
 }
 
+// Edit distance, for "did you mean" hints.
+std::size_t distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// The candidate closest to `key` if it is a plausible typo of it, else "".
+std::string closest(const std::string& key, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::max<std::size_t>(2, key.size() / 4) + 1;
+  for (const auto& c : candidates)
+    if (const std::size_t d = distance(key, c); d < best_d) { best = c; best_d = d; }
+  return best;
+}
+
 }  // namespace
 
 CaseFile CaseFile::parse(const std::string& text, const std::string& source,
@@ -122,8 +150,11 @@ CaseFile CaseFile::parse(const std::string& text, const std::string& source,
 }
 
 CaseFile CaseFile::load(const std::string& path, const std::vector<std::string>& overrides) {
+  if (!std::filesystem::exists(path)) throw ConfigError(path + ": no such case file");
+  if (std::filesystem::is_directory(path))
+    throw ConfigError(path + ": is a directory, expected a TOML case file");
   std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open the case file");
+  if (!in) throw ConfigError(path + ": cannot open the case file: " + std::strerror(errno));
   std::stringstream ss;
   ss << in.rdbuf();
   return parse(ss.str(), path, overrides);
@@ -148,8 +179,17 @@ bool CaseFile::has(const std::string& key) const { return find(key) != nullptr; 
 
 void CaseFile::fail(const std::string& key, const std::string& expected) const {
   const auto* n = find(key);
+  const std::string name = canonical(split_key(key));
   std::string got = n ? ", got " + describe(*n) : " (key missing)";
-  throw ConfigError(source_ + ": key '" + canonical(split_key(key)) + "': expected " + expected + got);
+  if (!n) {  // often a typo, or a misspelt table: name what was written instead
+    std::vector<std::string> leaves, path, unknown;
+    collect_leaves(table_, path, leaves);
+    for (const auto& leaf : leaves)
+      if (!used_.count(leaf)) unknown.push_back(leaf);
+    if (const std::string near = closest(name, unknown); !near.empty())
+      got = " (key missing; the file has '" + near + "', which cassini does not know: a typo?)";
+  }
+  throw ConfigError(source_ + ": key '" + name + "': expected " + expected + got);
 }
 
 double CaseFile::number(const std::string& key, std::optional<double> fallback) {
@@ -259,13 +299,29 @@ std::size_t CaseFile::array_size(const std::string& key) {
   return a->size();
 }
 
+std::vector<std::pair<std::string, std::string>> CaseFile::leaf_values() const {
+  std::vector<std::string> leaves, path;
+  collect_leaves(table_, path, leaves);
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& leaf : leaves) {
+    std::ostringstream os;
+    if (const auto* n = find(leaf)) n->visit([&os](const auto& v) { os << v; });
+    out.emplace_back(leaf, os.str());
+  }
+  return out;
+}
+
 void CaseFile::reject_unknown_keys() const {
   std::vector<std::string> leaves, path;
   collect_leaves(table_, path, leaves);
+  const std::vector<std::string> known(used_.begin(), used_.end());
   for (const auto& leaf : leaves)
-    if (!used_.count(leaf))
-      throw ConfigError(source_ + ": unknown key '" + leaf +
-                        "' (see docs/case-file.md for the keys a case file may use)");
+    if (!used_.count(leaf)) {
+      const std::string near = closest(leaf, known);
+      throw ConfigError(source_ + ": unknown key '" + leaf + "'" +
+                        (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                        " (see docs/case-file.md for the keys a case file may use)");
+    }
 }
 
 }  // namespace cassini

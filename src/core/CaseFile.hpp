@@ -38,6 +38,9 @@ class CaseFile {
   std::vector<std::array<double, 2>> points(const std::string& key);
   std::size_t array_size(const std::string& key);  // number of entries of an array of tables
 
+  // Every leaf key of the file ("species[0].radius") with its value as TOML text.
+  std::vector<std::pair<std::string, std::string>> leaf_values() const;
+
   // Throws ConfigError for the first key in the file that was never read.
   void reject_unknown_keys() const;
   [[noreturn]] void fail(const std::string& key, const std::string& expected) const;

@@ -17,6 +17,12 @@ double Config::max_radius() const {
   return r;
 }
 
+double Config::min_radius() const {
+  double r = species.empty() ? 0.0 : species[0].radius_min;
+  for (const auto& s : species) r = std::min(r, s.radius_min);
+  return r;
+}
+
 double Config::omega0() const { return std::sqrt(kGravitationalConstant * saturn_mass / std::pow(orbit_radius, 3)); }
 
 bool Config::has_module(const std::string& name) const {
@@ -232,6 +238,7 @@ Config read_config(CaseFile& f) {
   // ---- guards
   c.max_overlap_fraction = positive(f, "guards.max_overlap", 0.2);
   c.energy_growth = positive(f, "guards.energy_growth", 1e3);
+  c.max_step = positive(f, "guards.max_step", 0.5);
 
   // A box too small for the interaction range cannot be decomposed or imaged correctly.
   const double range = c.pair_range();

@@ -84,6 +84,9 @@ struct Config {
   // guards
   double max_overlap_fraction = 0.2;  // stop when an overlap exceeds this fraction of a radius
   double energy_growth = 1e3;         // stop when kinetic energy grows by this factor (no source)
+  double max_step = 0.5;              // stop when a step moves a particle (relative to the imposed
+                                      // flow) further than this fraction of the smallest radius
+  double min_radius() const;
 
   std::uint64_t seed = 1;
 

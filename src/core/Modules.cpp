@@ -49,7 +49,7 @@ std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation&
   // Kinetic energy may legitimately grow where something feeds it: gravity, the frame's
   // potential, a moonlet, shear at a Lees-Edwards boundary.
   const bool source = cfg.has_module("drag") || cfg.has_module("inlet") || cfg.has_module("gravity") || cfg.has_module("hill") || cfg.has_module("moonlet") || cfg.sheared();
-  m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, source));
+  m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, source, cfg.max_step));
   return m;
 }
 

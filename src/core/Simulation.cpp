@@ -120,20 +120,23 @@ void Simulation::compute_forces() {
 }
 
 void Simulation::raise_guard(const std::string& why) {
-  if (guard_message_.empty()) {
-    std::ostringstream os;
-    os << "guard tripped at step " << step_count << ", t = " << time << " s, rank " << domain.rank << ": " << why;
-    guard_message_ = os.str();
-  }
+  if (!guard_message_.empty()) return;
+  std::ostringstream os;
+  os << "guard tripped at step " << step_count << ", t = " << time << " s, rank " << domain.rank << ": " << why;
+  guard_message_ = os.str();
+  // The verdict reaches the other ranks at the next step's reduction; this rank dumps now, so
+  // the diagnostic dump is the state of the step the message names.
+  if (output_) output_->dump(*this, "diagnostic");
+  guard_dumped_ = true;
 }
 
 void Simulation::step() {
   const double next_time = (step_count + 1) * dt;  // from the step count: no accumulated round-off
   stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
   max_drift2 = 0;
-  for (Module* m : stage_[0]) m->initial_integrate(*this);
-  ++step_count;
+  ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
+  for (Module* m : stage_[0]) m->initial_integrate(*this);
   if (domain.shear.enabled) domain.shear.offset = domain.shear.rate * domain.length[1] * time;
 
   // One reduction per step decides both "rebuild?" and "did a guard trip last step?".
@@ -181,6 +184,7 @@ void Simulation::run(RunOutput* out) {
   const auto t0 = clock::now();
   auto last_print = t0;
   long last_step = step_count;
+  output_ = out;
   if (out) {
     out->observe(*this);
     if (dump_every) out->dump(*this, "step");
@@ -190,7 +194,8 @@ void Simulation::run(RunOutput* out) {
     try {
       step();
     } catch (const GuardError&) {
-      if (out) out->dump(*this, "diagnostic");
+      if (out && !guard_dumped_) out->dump(*this, "diagnostic");
+      output_ = nullptr;
       throw;
     }
     if (out && step_count % observe_every == 0) out->observe(*this);
@@ -216,6 +221,7 @@ void Simulation::run(RunOutput* out) {
       }
     }
   }
+  output_ = nullptr;
   if (global_guard_pending()) check_guards();
   // A run that a module ended (a clog) gets a last frame with its final state and results.
   if (out && snap_every && finished && step_count % snap_every != 0) out->snapshot(*this);

@@ -6,23 +6,46 @@
 
 #include <hdf5.h>
 
+#include "io/IoFailure.hpp"
+
 namespace cassini::h5 {
+
+// While a WriteScope is alive, any HDF5 failure ends the job at once through io_failure,
+// naming the file being written: unwinding would close a collectively opened file on one
+// rank while another still writes, which deadlocks. Outside one (reading), failures throw.
+inline thread_local const std::string* writing = nullptr;
+struct WriteScope {
+  explicit WriteScope(const std::string& file) { writing = &file; }
+  ~WriteScope() { writing = nullptr; }
+  WriteScope(const WriteScope&) = delete;
+};
+
+inline void fail(const std::string& what) {
+  if (writing) io_failure(*writing, hdf5_failure_reason());
+  throw std::runtime_error("HDF5: " + what);
+}
 
 struct Handle {
   hid_t id = -1;
   herr_t (*close)(hid_t) = nullptr;
   Handle(hid_t i, herr_t (*c)(hid_t), const std::string& what) : id(i), close(c) {
-    if (id < 0) throw std::runtime_error("HDF5: " + what);
+    if (id < 0) fail(what);
   }
   Handle(const Handle&) = delete;
   ~Handle() {
     if (id >= 0) close(id);
   }
+  // Closes now and checks: for a file, this is where cached data reaches the disk.
+  void close_checked(const std::string& what) {
+    const herr_t r = close(id);
+    id = -1;
+    if (r < 0) fail(what);
+  }
   operator hid_t() const { return id; }
 };
 
 inline void check(herr_t r, const std::string& what) {
-  if (r < 0) throw std::runtime_error("HDF5: " + what);
+  if (r < 0) fail(what);
 }
 
 inline void attr_string(hid_t obj, const std::string& name, const std::string& value) {

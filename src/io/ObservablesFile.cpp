@@ -43,16 +43,22 @@ void append_row(hid_t parent, const char* name, hid_t type, const void* data) {
 }  // namespace
 
 void ObservablesFile::append(long step, double time, const Row& row) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // a failure is reported once, by io_failure
+  const h5::WriteScope writing(path_);
+  if (injected_write_failure(path_, 0)) io_failure(path_, "No space left on device (injected by CASSINI_FAIL_WRITE)");
   if (!created_) {
     Handle file(H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "create " + path_);
     h5::h5md_header(file);
-    Handle obs = h5::group(file, "observables");
-    for (const auto& [name, value] : row) {
-      Handle g = h5::group(obs, name);
-      create_series(g, "step", H5T_NATIVE_INT64, 1);
-      create_series(g, "time", H5T_NATIVE_DOUBLE, 1);
-      create_series(g, "value", H5T_NATIVE_DOUBLE, value.size());
+    {
+      Handle obs = h5::group(file, "observables");
+      for (const auto& [name, value] : row) {
+        Handle g = h5::group(obs, name);
+        create_series(g, "step", H5T_NATIVE_INT64, 1);
+        create_series(g, "time", H5T_NATIVE_DOUBLE, 1);
+        create_series(g, "value", H5T_NATIVE_DOUBLE, value.size());
+      }
     }
+    file.close_checked("close " + path_);
     created_ = true;
   }
   Handle file(H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + path_);
@@ -63,6 +69,7 @@ void ObservablesFile::append(long step, double time, const Row& row) {
     append_row(g, "time", H5T_NATIVE_DOUBLE, &time);
     append_row(g, "value", H5T_NATIVE_DOUBLE, value.data());
   }
+  file.close_checked("close " + path_);
 }
 
 }  // namespace cassini

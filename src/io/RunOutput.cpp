@@ -2,12 +2,16 @@
 
 #include <filesystem>
 #include <iomanip>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
 #include <iostream>
 #include <sstream>
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
+#include "io/IoFailure.hpp"
 #include "io/Snapshot.hpp"
 #include "physics/Moonlet.hpp"
 
@@ -15,18 +19,61 @@ namespace fs = std::filesystem;
 
 namespace cassini {
 
-RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm) : dir_(dir), comm_(comm) {
+namespace {
+
+const char* kMarker = ".cassini-run";  // written into every run directory cassini creates
+
+bool inside(const fs::path& p, const fs::path& dir) {  // p is dir or below it (both canonical)
+  auto d = dir.begin(), q = p.begin();
+  for (; d != dir.end(); ++d, ++q)
+    if (q == p.end() || *d != *q) return false;
+  return true;
+}
+
+// Why `dir` may not be (re)used as the output directory, or "" when it may. Nothing is touched.
+std::string refuse_output(const std::string& dir, bool force, const std::vector<std::string>& keep) {
+  std::error_code ec;
+  const fs::path out = fs::weakly_canonical(fs::absolute(dir), ec);
+  if (fs::exists(out) && !fs::is_directory(out))
+    return "--out '" + dir + "' is a file, not a directory: cassini never replaces a file; choose another --out";
+  const fs::path cwd = fs::weakly_canonical(fs::current_path(), ec);
+  if (inside(cwd, out))
+    return "--out '" + dir + "' is the working directory or one of its parents: refused, nothing was touched";
+  for (const auto& k : keep) {
+    if (k.empty()) continue;
+    if (inside(fs::weakly_canonical(fs::absolute(k), ec), out))
+      return "--out '" + dir + "' holds '" + k + "', which this run reads (the case file or the restart snapshot): " +
+             "write to another --out (continuing a run in place would overwrite its frames)";
+  }
+  if (!fs::exists(out) || fs::is_empty(out)) return "";
+  if (!force) return "output directory '" + dir + "' exists and is not empty: choose another --out or pass --force";
+  if (!fs::exists(out / kMarker))
+    return "--force replaces only a run directory cassini made (it holds " + std::string(kMarker) + "); '" + dir +
+           "' is not one: nothing was deleted";
+  return "";
+}
+
+}  // namespace
+
+RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<std::string>& keep)
+    : dir_(dir), comm_(comm) {
   MPI_Comm_rank(comm, &rank_);
   std::string error;
   if (rank_ == 0) {
     std::error_code ec;
-    if (fs::exists(dir) && !fs::is_empty(dir)) {
-      if (!force) error = "output directory '" + dir + "' exists and is not empty: choose another --out or pass --force";
-      else fs::remove_all(dir, ec);
+    error = refuse_output(dir, force, keep);
+    if (error.empty() && fs::exists(dir) && !fs::is_empty(dir)) {  // a cassini run directory, --force given
+      fs::remove_all(dir, ec);
+      if (ec) error = "cannot replace output directory '" + dir + "': " + ec.message();
     }
     if (error.empty()) {
       fs::create_directories(dir + "/dump", ec);
       if (ec) error = "cannot create output directory '" + dir + "': " + ec.message();
+    }
+    if (error.empty()) {
+      std::ofstream(dir + "/" + kMarker) << "A cassini run directory: `cassini ... --out " << dir
+                                        << " --force` may replace it.\n";
+      if (!fs::exists(dir + "/" + kMarker)) error = "cannot write into output directory '" + dir + "'";
     }
   }
   int len = static_cast<int>(error.size());
@@ -35,11 +82,22 @@ RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm) : dir_(d
   MPI_Bcast(error.data(), len, MPI_CHAR, 0, comm);
   if (!error.empty()) throw ConfigError(error);
   if (rank_ == 0) {
+    set_io_failure_log(dir + "/run.log");
     log_.open(dir + "/run.log");
     obs_.open(dir + "/observables.csv");
     h5obs_ = std::make_unique<ObservablesFile>(dir + "/observables.h5md");
     obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
             "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts\n";
+    checked_flush(obs_, "observables.csv");
+  }
+}
+
+void RunOutput::checked_flush(std::ofstream& out, const std::string& name) {
+  out.flush();
+  if (!out || injected_write_failure(name, rank_)) {
+    const std::string why = out ? "No space left on device (injected by CASSINI_FAIL_WRITE)" : std::strerror(errno);
+    set_io_failure_log("");  // run.log may be the file that failed
+    io_failure(dir_ + "/" + name, why);
   }
 }
 
@@ -47,12 +105,24 @@ void RunOutput::log(const std::string& line) {
   if (rank_ != 0) return;
   std::cout << line << std::endl;
   log_ << line << "\n";
-  log_.flush();
+  checked_flush(log_, "run.log");
+}
+
+void RunOutput::log_only(const std::string& line) {
+  if (rank_ != 0) return;
+  log_ << line << "\n";
+  log_.flush();  // best effort: this reports an error already
 }
 
 void RunOutput::write_text(const std::string& name, const std::string& text) {
   if (rank_ != 0) return;
-  std::ofstream(dir_ + "/" + name) << text;
+  // Under a temporary name, then renamed: a full disk never leaves a complete-looking file.
+  const std::string path = dir_ + "/" + name, tmp = path + ".partial";
+  std::ofstream out(tmp);
+  out << text;
+  out.close();
+  if (!out || injected_write_failure(name, rank_)) io_failure(path, out ? "injected failure" : std::strerror(errno));
+  fs::rename(tmp, path);
 }
 
 void RunOutput::observe(Simulation& sim) {
@@ -85,7 +155,7 @@ void RunOutput::observe(Simulation& sim) {
        << mom[0] << "," << mom[1] << "," << mom[2] << "," << sums[1] / mass << "," << sums[2] / mass << ","
        << sums[3] / mass << "," << contacts / 2 << "," << sums[5] << "," << (contacts > 0 ? sums[6] / contacts : 0.0)
        << "," << max_overlap << "," << sums[7] << "\n";
-  obs_.flush();
+  checked_flush(obs_, "observables.csv");
   // Granular temperature: the mean velocity variance over the axes that move.
   const int dims = sim.cfg.planar ? 2 : 3;
   const std::vector<double> variance = {sums[1] / mass, sums[2] / mass, sums[3] / mass};
@@ -130,43 +200,71 @@ void RunOutput::dump(const Simulation& sim, const std::string& tag) {
     for (std::size_t i = 0; i < p.nlocal; ++i)
       out << p.id[i] << " " << p.species[i] << " " << p.radius[i] << " " << p.x[i][0] << " " << p.x[i][1] << " "
           << p.x[i][2] << " " << p.v[i][0] << " " << p.v[i][1] << " " << p.v[i][2] << "\n";
+    out.close();
+    if (!out) io_failure(tmp, std::strerror(errno));
   }
   fs::rename(tmp, name.str());
 }
 
-void RunOutput::summary(Simulation& sim, double wall, long steps) {
+std::string json_number(double v) {  // JSON has no inf or NaN
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream os;
+  os << std::setprecision(10) << v;
+  return os.str();
+}
+
+std::string json_string(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += std::string("\\") + c;
+    else if (c == '\n') out += "\\n";
+    else if (static_cast<unsigned char>(c) < 0x20) out += ' ';
+    else out += c;
+  }
+  return out + "\"";
+}
+
+void RunOutput::summary(Simulation& sim, double wall, long steps, const std::string& status, const std::string& reason) {
   const double ke = sim.kinetic_energy();
   const long n = sim.total_particles();
   const double mine = wall > 0 ? double(sim.particles.nlocal) * steps / wall : 0.0;
   std::vector<double> rates(sim.domain.nranks);
   MPI_Gather(&mine, 1, MPI_DOUBLE, rates.data(), 1, MPI_DOUBLE, 0, comm_);
   if (rank_ != 0) return;
+  auto num = json_number;
   std::ostringstream js;
-  js << std::setprecision(10) << "{\n"
-     << "  \"case\": \"" << sim.cfg.source << "\",\n"
+  js << "{\n"
+     << "  \"status\": " << json_string(status) << ",\n"
+     << "  \"stop_reason\": " << json_string(reason) << ",\n"
+     << "  \"case\": " << json_string(sim.cfg.source) << ",\n"
      << "  \"ranks\": " << sim.domain.nranks << ",\n"
      << "  \"steps\": " << steps << ",\n"
      << "  \"final_step\": " << sim.step_count << ",\n"
-     << "  \"simulated_time\": " << sim.time << ",\n"
-     << "  \"dt\": " << sim.dt << ",\n"
+     << "  \"simulated_time\": " << num(sim.time) << ",\n"
+     << "  \"dt\": " << num(sim.dt) << ",\n"
      << "  \"particles\": " << n << ",\n"
-     << "  \"wall_seconds\": " << wall << ",\n"
-     << "  \"particle_steps_per_second\": " << (wall > 0 ? double(n) * steps / wall : 0.0) << ",\n"
+     << "  \"wall_seconds\": " << num(wall) << ",\n"
+     << "  \"particle_steps_per_second\": " << num(wall > 0 ? double(n) * steps / wall : 0.0) << ",\n"
      << "  \"particle_steps_per_second_per_rank\": [";
-  for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << rates[r];
+  for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << num(rates[r]);
   js << "],\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
-  for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << sim.domain.cuts[r];
-  js << "],\n  \"decomposition\": \"" << sim.cfg.decomposition << "\"";
-  js << ",\n  \"imbalance_at_last_balancing\": " << sim.imbalance;
-  js << ",\n  \"imbalance_mean\": " << (sim.imbalance_samples ? sim.imbalance_sum / sim.imbalance_samples : 1.0);
-  js << ",\n  \"imbalance_worst\": " << sim.imbalance_worst << ",\n  \"active_modules\": [";
+  for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << num(sim.domain.cuts[r]);
+  js << "],\n  \"decomposition\": " << json_string(sim.cfg.decomposition);
+  js << ",\n  \"imbalance_at_last_balancing\": " << num(sim.imbalance);
+  js << ",\n  \"imbalance_mean\": " << num(sim.imbalance_samples ? sim.imbalance_sum / sim.imbalance_samples : 1.0);
+  js << ",\n  \"imbalance_worst\": " << num(sim.imbalance_worst) << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
-  for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << "\"" << names[k] << "\"";
-  js << "],\n  \"final_kinetic_energy\": " << ke;
-  if (sim.finished) js << ",\n  \"ended\": \"" << sim.finish_reason << "\"";
-  for (const auto& [k, v] : sim.results) js << ",\n  \"" << k << "\": " << v;
+  for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << json_string(names[k]);
+  js << "],\n  \"final_kinetic_energy\": " << num(ke);
+  if (sim.finished) js << ",\n  \"ended\": " << json_string(sim.finish_reason);
+  for (const auto& [k, v] : sim.results) js << ",\n  " << json_string(k) << ": " << v;
   js << "\n}\n";
   write_text("summary.json", js.str());
+}
+
+void RunOutput::error_summary(const std::string& reason) {
+  if (rank_ != 0) return;
+  write_text("summary.json", "{\n  \"status\": \"error\",\n  \"stop_reason\": " + json_string(reason) + "\n}\n");
 }
 
 }  // namespace cassini

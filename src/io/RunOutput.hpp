@@ -16,19 +16,31 @@ namespace cassini {
 
 class Simulation;
 
+std::string json_number(double v);         // "null" for inf and NaN
+std::string json_string(const std::string& text);
+
 class RunOutput {
  public:
-  RunOutput(const std::string& dir, bool force, MPI_Comm comm);
+  // Creates `dir` (marked as a run directory). Refuses, before touching anything: a file,
+  // the working directory or a parent, a directory holding any of `keep` (the case file,
+  // the restart snapshot), a non-empty directory without --force, and with --force one that
+  // cassini did not make.
+  RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<std::string>& keep = {});
   void log(const std::string& line);                 // rank 0: stdout and run.log
+  void log_only(const std::string& line);            // rank 0: run.log (already on stderr)
   void write_text(const std::string& name, const std::string& text);  // rank 0
   void observe(Simulation& sim);                     // collective: one observables row
   void dump(const Simulation& sim, const std::string& tag);  // every rank its own file
-  void summary(Simulation& sim, double wall_seconds, long steps_run);  // collective
+  // Collective. status: "completed", "stopped by a guard" or "error"; reason: why it ended.
+  void summary(Simulation& sim, double wall_seconds, long steps_run, const std::string& status,
+               const std::string& reason);
+  void error_summary(const std::string& reason);     // rank 0: an error before or outside the step loop
   void snapshot(Simulation& sim);                    // collective: dir/snap_<step>.h5md
   const std::string& dir() const { return dir_; }
   std::string case_text;                             // resolved case, stored in snapshots
 
  private:
+  void checked_flush(std::ofstream& out, const std::string& name);  // a failed write ends the job
   std::string dir_;
   int rank_ = 0;
   MPI_Comm comm_;

@@ -1,11 +1,14 @@
 #include "io/Snapshot.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -14,6 +17,7 @@
 
 #include "core/CaseFile.hpp"
 #include "io/Hdf5Handle.hpp"
+#include "io/IoFailure.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
 
@@ -183,6 +187,8 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   const std::string final_name = name.str(), tmp = final_name + ".partial";
 
   {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // a failure is reported once, by io_failure
+    const h5::WriteScope writing(tmp);
     Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "fapl");
     check(H5Pset_fapl_mpio(fapl, dom.comm, MPI_INFO_NULL), "mpio");
     Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose, "create " + tmp);
@@ -196,6 +202,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     const hsize_t N = total, off = offset, rows = n;
     element(grains, "position", H5T_NATIVE_DOUBLE, N, off, rows, 3, x.data(), step, time, dxpl);
     element(grains, "velocity", H5T_NATIVE_DOUBLE, N, off, rows, 3, v.data(), step, time, dxpl);
+    if (injected_write_failure(tmp, dom.rank)) io_failure(tmp, "No space left on device (injected by CASSINI_FAIL_WRITE)");
     element(grains, "force", H5T_NATIVE_DOUBLE, N, off, rows, 3, f.data(), step, time, dxpl);
     element(grains, "body_force", H5T_NATIVE_DOUBLE, N, off, rows, 3, bf.data(), step, time, dxpl);
     element(grains, "id", H5T_NATIVE_INT64, N, off, rows, 1, ids.data(), step, time, dxpl);
@@ -311,6 +318,9 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       small_dataset(params, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
       attr_string(params, "complete", "yes");  // last thing written
     }
+    grains.close_checked("close particles/grains");  // a file closes only once nothing in it is open
+    particles.close_checked("close particles");
+    file.close_checked("close " + tmp);  // the metadata reaches the disk here: check it
   }
   MPI_Barrier(dom.comm);
   if (dom.rank == 0) {
@@ -330,6 +340,8 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     xm << "   <Attribute Name=\"velocity\" Center=\"Node\" AttributeType=\"Vector\">\n    <DataItem Dimensions=\"1 " << total
        << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/velocity/value</DataItem>\n   </Attribute>\n";
     xm << "  </Grid>\n </Domain>\n</Xdmf>\n";
+    xm.close();
+    if (!xm) io_failure(final_name.substr(0, final_name.size() - 5) + ".xdmf", std::strerror(errno));
   }
   MPI_Barrier(dom.comm);
   return final_name;
@@ -461,6 +473,57 @@ void read_snapshot(Simulation& sim, const std::string& path) {
   } catch (const std::exception& e) {
     throw ConfigError(path + ": not a complete cassini snapshot (truncated, still being written, or not H5MD from "
                              "cassini): " + e.what());
+  }
+}
+
+std::string snapshot_case_text(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // serial: every rank reads the attribute
+  if (file < 0) throw ConfigError(path + ": not a readable HDF5 file (truncated, or not a cassini snapshot)");
+  std::string text;
+  if (H5Aexists_by_name(file, "parameters", "case", H5P_DEFAULT) > 0) {
+    const hid_t a = H5Aopen_by_name(file, "parameters", "case", H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t type = H5Aget_type(a);
+    text.resize(H5Tget_size(type));
+    if (H5Aread(a, type, text.data()) < 0) text.clear();
+    H5Tclose(type);
+    H5Aclose(a);
+    text = text.c_str();  // drop the terminating NUL
+  }
+  H5Fclose(file);
+  if (text.empty()) throw ConfigError(path + ": not a complete cassini snapshot (it stores no case)");
+  return text;
+}
+
+void check_restart_case(const std::string& snapshot, const CaseFile& now) {
+  if (!std::filesystem::exists(snapshot)) throw ConfigError("--restart '" + snapshot + "': no such file");
+  if (std::filesystem::is_directory(snapshot))
+    throw ConfigError("--restart '" + snapshot + "': is a directory, expected a snap_<step>.h5md file");
+  const CaseFile then = CaseFile::parse(snapshot_case_text(snapshot), snapshot + " (its stored case)");
+  // Compare printed values: the stored case went through the same printer.
+  std::ostringstream printed;
+  printed << now.table();
+  const CaseFile now_printed = CaseFile::parse(printed.str(), now.source());
+  const auto a = then.leaf_values(), b = now_printed.leaf_values();
+  auto may_change = [](const std::string& key) {
+    for (const char* prefix : {"output.", "guards."})
+      if (key.rfind(prefix, 0) == 0) return true;
+    for (const char* k : {"time.end", "time.force", "domain.slab_axis", "domain.decomposition", "domain.balance_every"})
+      if (key == k) return true;
+    return false;
+  };
+  std::map<std::string, std::string> old(a.begin(), a.end()), cur(b.begin(), b.end());
+  std::set<std::string> keys;
+  for (const auto& [k, v] : old) keys.insert(k);
+  for (const auto& [k, v] : cur) keys.insert(k);
+  for (const auto& k : keys) {
+    if (may_change(k)) continue;
+    const auto o = old.find(k), c = cur.find(k);
+    const std::string was = o == old.end() ? "(absent)" : o->second, is = c == cur.end() ? "(absent)" : c->second;
+    if (was != is)
+      throw ConfigError(now.source() + ": key '" + k + "' is " + is + " but the snapshot " + snapshot + " was made with " +
+                        was + ": a restart continues the same system (only time.end, output.*, guards.*, time.force "
+                        "and the parallel layout may change)");
   }
 }
 

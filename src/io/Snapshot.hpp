@@ -25,6 +25,16 @@
 namespace cassini {
 
 class Simulation;
+class CaseFile;
+
+// Refuses (ConfigError naming the key and both values) to continue `snapshot` with a case that
+// does not describe its particles: every key must match the case stored in the snapshot except
+// those a restart may change: time.end, output.*, guards.*, time.force, and the parallel layout
+// (domain.slab_axis, domain.decomposition, domain.balance_every). Also refuses a missing file.
+void check_restart_case(const std::string& snapshot, const CaseFile& now);
+
+// The resolved case text stored in a snapshot (parameters/case); throws if there is none.
+std::string snapshot_case_text(const std::string& snapshot);
 
 // Writes the current state of `sim` to dir/snap_<step>.h5md; returns the file name.
 std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text);

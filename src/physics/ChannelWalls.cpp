@@ -61,7 +61,7 @@ void ChannelWalls::force(Simulation& sim) {
       Vec3 torque;
       p.f[i] += law_.wall_force(p, i, Vec3(c.nx, c.ny, 0), a - c.distance, fric ? &xi[c.feature] : nullptr, torque);
       if (fric) p.torque[i] += torque;
-      worst = std::max(worst, (a - c.distance) / a);
+      if ((a - c.distance) / a > worst) { worst = (a - c.distance) / a; worst_id_ = p.id[i]; }
     }
   }
   max_overlap_ = worst;

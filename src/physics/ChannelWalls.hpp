@@ -20,6 +20,7 @@ class ChannelWalls : public Module {
   void post_rebuild(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   double max_overlap_fraction() const { return max_overlap_; }
+  std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
   const ChannelGeometry& geometry() const { return geometry_; }
 
  private:
@@ -27,6 +28,7 @@ class ChannelWalls : public Module {
   ChannelGeometry geometry_;
   int first_slot_;
   double max_overlap_ = 0;
+  std::int64_t worst_id_ = -1;
   std::vector<WallContact> touching_;
   // Per particle, the features within its radius + skin at the last rebuild: the only ones it
   // can touch before the next (most beads are far from every side wall). One bit per feature.

@@ -1,5 +1,6 @@
 #include "physics/Guards.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -14,6 +15,34 @@ namespace cassini {
 void Guards::setup(Simulation& sim) {
   ke0_ = sim.kinetic_energy();
   channel_ = sim.find<ChannelWalls>();
+  double r = sim.cfg.min_radius(), smallest = 0;
+  for (std::size_t i = 0; i < sim.particles.nlocal; ++i) r = std::min(r, sim.particles.radius[i]);
+  MPI_Allreduce(&r, &smallest, 1, MPI_DOUBLE, MPI_MIN, sim.domain.comm);
+  step_limit2_ = max_step_ * smallest * max_step_ * smallest;
+}
+
+void Guards::initial_integrate(Simulation& sim) {
+  if (sim.max_step2 <= step_limit2_ && std::isfinite(sim.max_drift2)) return;  // the fast path: one compare
+  // Name the particle: the velocity now is the half-step velocity the drift just used.
+  const ParticleStore& p = sim.particles;
+  std::size_t worst = 0;
+  double w = -1;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!p.x[i].allFinite() || !p.v[i].allFinite()) { worst = i; w = INFINITY; break; }
+    const double s = (p.v[i] - sim.imposed_flow(p.x[i])).squaredNorm();
+    if (s > w) { w = s; worst = i; }
+  }
+  std::ostringstream os;
+  if (!std::isfinite(w)) {
+    os << "non-finite position or velocity of particle " << p.id[worst] << " (x = " << p.x[worst].transpose()
+       << ", v = " << p.v[worst].transpose() << ")";
+  } else {
+    os << "particle " << p.id[worst] << " moved " << sim.dt * std::sqrt(w) / std::sqrt(step_limit2_) * max_step_
+       << " of the smallest radius in one step (relative to the imposed flow), more than guards.max_step = " << max_step_
+       << ": it can pass through other particles unseen (tunnelling); |v - u| = " << std::sqrt(w)
+       << " m/s, dt = " << sim.dt << " s";
+  }
+  sim.raise_guard(os.str());
 }
 
 std::string Guards::diagnose(const Simulation& sim) const {
@@ -39,12 +68,14 @@ std::string Guards::diagnose(const Simulation& sim) const {
     why << "overlap of " << sim.contact->max_overlap_fraction() << " radii at particle " << sim.contact->worst_id()
         << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
   if (why.tellp() == 0 && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
-    why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
+    why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii at particle " << sim.walls->worst_id()
+        << " exceeds guards.max_overlap = " << max_overlap_;
   if (why.tellp() == 0 && channel_ && channel_->max_overlap_fraction() > max_overlap_)
-    why << "channel wall overlap of " << channel_->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_;
+    why << "channel wall overlap of " << channel_->max_overlap_fraction() << " radii at particle " << channel_->worst_id()
+        << " exceeds guards.max_overlap = " << max_overlap_;
   if (why.tellp() == 0 && sim.moonlet && sim.moonlet->max_overlap_fraction() > max_overlap_)
-    why << "moonlet overlap of " << sim.moonlet->max_overlap_fraction() << " radii exceeds guards.max_overlap = " << max_overlap_
-        << " (impact too fast for t_c)";
+    why << "moonlet overlap of " << sim.moonlet->max_overlap_fraction() << " radii at particle " << sim.moonlet->worst_id()
+        << " exceeds guards.max_overlap = " << max_overlap_ << " (impact too fast for t_c)";
   return why.str();
 }
 
@@ -81,9 +112,15 @@ void Guards::end_of_step(Simulation& sim) {
   if (!energy_source_ && ke0_ > 0 && sim.step_count % 100 == 0) {
     const double ke = sim.kinetic_energy();
     if (ke > energy_growth_ * ke0_) {
+      // Name the particle with the most kinetic energy on this rank: where the growth shows.
+      const ParticleStore& p = sim.particles;
+      std::size_t fast = 0;
+      for (std::size_t i = 1; i < p.nlocal; ++i)
+        if (p.mass[i] * p.v[i].squaredNorm() > p.mass[fast] * p.v[fast].squaredNorm()) fast = i;
       std::ostringstream os;
       os << "kinetic energy grew by a factor " << ke / ke0_ << " > guards.energy_growth = " << energy_growth_
          << " with no energy source in the scene";
+      if (p.nlocal > 0) os << "; the most energetic particle here is " << p.id[fast] << " at |v| = " << p.v[fast].norm() << " m/s";
       sim.raise_guard(os.str());
     }
   }

@@ -11,17 +11,22 @@ namespace cassini {
 
 class Guards : public Module {
  public:
-  Guards(double max_overlap, double energy_growth, bool energy_source)
-      : max_overlap_(max_overlap), energy_growth_(energy_growth), energy_source_(energy_source) {}
+  Guards(double max_overlap, double energy_growth, bool energy_source, double max_step)
+      : max_overlap_(max_overlap), energy_growth_(energy_growth), energy_source_(energy_source), max_step_(max_step) {}
   std::string name() const override { return "guards"; }
-  unsigned stages() const override { return kEndOfStep; }
+  unsigned stages() const override { return kInitialIntegrate | kEndOfStep; }
   void setup(Simulation& sim) override;
+  // Runs after the integrator's drift: a particle that moved too far in one step (relative to
+  // the imposed flow) may have passed through another one unseen: tunnelling.
+  void initial_integrate(Simulation& sim) override;
   void end_of_step(Simulation& sim) override;
 
  private:
   std::string diagnose(const Simulation& sim) const;  // why the fast scan failed
   double max_overlap_, energy_growth_;
   bool energy_source_;
+  double max_step_;      // fraction of the smallest radius
+  double step_limit2_ = 0;  // (max_step_ * smallest radius)^2
   double ke0_ = 0;
   const class ChannelWalls* channel_ = nullptr;
 };

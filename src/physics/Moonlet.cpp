@@ -47,7 +47,7 @@ void Moonlet::force(Simulation& sim) {
     Vec3 xi = Vec3::Zero(), torque;  // the moonlet is frictionless in the ring scene; no history kept
     F[i] += law_.wall_force(p, i, Vec3(x, y, z) / d, delta, fric ? &xi : nullptr, torque);
     if (fric) p.torque[i] += torque;
-    worst = std::max(worst, delta / A[i]);
+    if (delta / A[i] > worst) { worst = delta / A[i]; worst_id_ = p.id[i]; }
     ++contacts;
   }
   max_overlap_ = worst;

@@ -25,6 +25,7 @@ class Moonlet : public Module {
 
   Vec3 gravity(const Vec3& x) const;  // acceleration at x
   double max_overlap_fraction() const { return max_overlap_; }
+  std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
   long contacts() const { return contacts_; }
 
  private:
@@ -39,6 +40,7 @@ class Moonlet : public Module {
   double gm_, radius_;
   int dims_;
   double max_overlap_ = 0;
+  std::int64_t worst_id_ = -1;
   long contacts_ = 0;
 };
 

@@ -37,7 +37,7 @@ void PlaneWalls::force(Simulation& sim) {
       Vec3 torque;
       p.f[i] += law_.wall_force(p, i, pl.normal, delta, xi, torque);
       if (fric) p.torque[i] += torque;
-      worst = std::max(worst, delta / a);
+      if (delta / a > worst) { worst = delta / a; worst_id_ = p.id[i]; }
     }
   }
   max_overlap_ = worst;

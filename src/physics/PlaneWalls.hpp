@@ -24,11 +24,13 @@ class PlaneWalls : public Module {
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   const std::vector<Plane>& planes() const { return planes_; }
   double max_overlap_fraction() const { return max_overlap_; }
+  std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
 
  private:
   LinearSpringDashpot law_;
   std::vector<Plane> planes_;
   double max_overlap_ = 0;
+  std::int64_t worst_id_ = -1;
 };
 
 // Wall planes implied by a case's domain boundaries (used to size per-particle history).

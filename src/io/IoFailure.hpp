@@ -1,0 +1,30 @@
+#pragma once
+// A write that failed (disk full, I/O error, permission) ends the whole job at once.
+//
+// Why abort rather than throw: the snapshot is written collectively, and a failure is often
+// seen by one rank only (the one whose MPI-IO aggregator hit the full disk). A rank that
+// throws and closes the file while another still writes deadlocks both. MPI_Abort ends every
+// rank within about a second; the frame being written stays under its `.partial` name, so
+// every file that looks complete is complete.
+#include <string>
+
+#include <mpi.h>
+
+namespace cassini {
+
+// Prints "error: cannot write FILE: REASON" once (to stderr and, when it can, to run.log)
+// and aborts all ranks with exit code 4.
+[[noreturn]] void io_failure(const std::string& file, const std::string& reason);
+
+// Where io_failure also appends its message (rank 0's run.log); empty: stderr only.
+void set_io_failure_log(const std::string& path);
+
+// The operating system's reason behind the innermost error on HDF5's error stack
+// ("No space left on device"), or the innermost HDF5 description when it names none.
+std::string hdf5_failure_reason();
+
+// Tests only: CASSINI_FAIL_WRITE=<file name part>[@rank] makes the first matching write
+// on that rank fail as if the disk were full (for machines where a test cannot mount a tmpfs).
+bool injected_write_failure(const std::string& file, int rank);
+
+}  // namespace cassini
