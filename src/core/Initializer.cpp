@@ -1,6 +1,10 @@
 #include "core/Initializer.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -184,22 +188,45 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
   std::vector<int> species;
   if (cfg.init == "none") return;
   if (cfg.init == "file") {
+    if (!std::filesystem::exists(cfg.init_file))
+      throw ConfigError(cfg.source + ": key 'particles.file': no such file '" + cfg.init_file + "'");
     std::ifstream in(cfg.init_file);
-    if (!in) throw ConfigError(cfg.source + ": key 'particles.file': cannot open '" + cfg.init_file + "'");
+    if (!in)
+      throw ConfigError(cfg.source + ": key 'particles.file': cannot open '" + cfg.init_file + "': " + std::strerror(errno));
     std::string line;
     int lineno = 0;
+    static const char* field[] = {"x", "y", "z", "vx", "vy", "vz", "radius", "species-index"};
     while (std::getline(in, line)) {
       ++lineno;
       if (line.empty() || line[0] == '#') continue;
       std::istringstream ls(line);
-      Vec3 x, v;
-      double a;
+      std::vector<std::string> words;
+      for (std::string w; ls >> w;) words.push_back(w);
+      const std::string where = cfg.init_file + ":" + std::to_string(lineno) + ": ";
+      if (words.size() < 7 || words.size() > 8)
+        throw ConfigError(where + "expected 'x y z vx vy vz radius [species-index]', got " +
+                          std::to_string(words.size()) + " fields");
+      double value[7];
+      for (int k = 0; k < 7; ++k) {
+        char* end = nullptr;
+        value[k] = std::strtod(words[k].c_str(), &end);
+        if (end != words[k].c_str() + words[k].size())
+          throw ConfigError(where + "field '" + field[k] + "' is '" + words[k] + "', expected a number");
+        if (!std::isfinite(value[k]))
+          throw ConfigError(where + "field '" + field[k] + "' is " + words[k] + ", expected a finite number");
+      }
+      const Vec3 x(value[0], value[1], value[2]), v(value[3], value[4], value[5]);
+      const double a = value[6];
+      if (!(a > 0)) throw ConfigError(where + "field 'radius' is " + words[6] + ", expected a positive number");
       int sp = cfg.init_species;
-      if (!(ls >> x[0] >> x[1] >> x[2] >> v[0] >> v[1] >> v[2] >> a) || !(a > 0))
-        throw ConfigError(cfg.init_file + ":" + std::to_string(lineno) +
-                          ": expected 'x y z vx vy vz radius [species-index]' with radius > 0");
-      if (ls >> sp && (sp < 0 || sp >= int(cfg.species.size())))
-        throw ConfigError(cfg.init_file + ":" + std::to_string(lineno) + ": species index out of range");
+      if (words.size() == 8) {
+        char* end = nullptr;
+        const long k = std::strtol(words[7].c_str(), &end, 10);
+        if (end != words[7].c_str() + words[7].size() || k < 0 || k >= long(cfg.species.size()))
+          throw ConfigError(where + "field 'species-index' is '" + words[7] + "', expected an integer in [0, " +
+                            std::to_string(cfg.species.size() - 1) + "]");
+        sp = int(k);
+      }
       cands.push_back({x, a});
       velocities.push_back(v);
       species.push_back(sp);

@@ -21,7 +21,7 @@ struct WriteScope {
 };
 
 inline void fail(const std::string& what) {
-  if (writing) io_failure(*writing, hdf5_failure_reason());
+  if (writing) io_failure(*writing, hdf5_failure_reason(*writing));
   throw std::runtime_error("HDF5: " + what);
 }
 

@@ -1,11 +1,17 @@
 #include "io/IoFailure.hpp"
 
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <regex>
 
+#include <fcntl.h>
 #include <hdf5.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
 
 namespace cassini {
 namespace {
@@ -15,9 +21,9 @@ std::string& log_path() {
   return path;
 }
 
-herr_t innermost(unsigned n, const H5E_error2_t* err, void* out) {
+herr_t collect(unsigned, const H5E_error2_t* err, void* out) {
   // The walk goes from the innermost (the file driver: errno and strerror) outwards.
-  if (n == 0 && err->desc) *static_cast<std::string*>(out) = err->desc;
+  if (err->desc) *static_cast<std::string*>(out) += std::string(err->desc) + "\n";
   return 0;
 }
 
@@ -36,15 +42,35 @@ void io_failure(const std::string& file, const std::string& reason) {
   std::abort();  // not reached
 }
 
-std::string hdf5_failure_reason() {
+std::string os_write_reason(const std::string& file) {
+  // The MPI-IO driver reports a short write without errno: ask the file system, as a write
+  // of the same kind would. A probe file is created beside the failed one and removed again.
+  const std::string dir = std::filesystem::path(file).parent_path().string();
+  struct statvfs fs {};
+  if (statvfs(dir.empty() ? "." : dir.c_str(), &fs) == 0 && double(fs.f_bavail) * fs.f_frsize < 65536.0)
+    return std::strerror(ENOSPC);
+  const std::string probe = (dir.empty() ? std::string(".") : dir) + "/.cassini-write-probe";
+  const int fd = ::open(probe.c_str(), O_CREAT | O_WRONLY | O_TRUNC, 0600);
+  if (fd < 0) return std::strerror(errno);
+  static const char block[65536] = {};
+  const ssize_t n = ::write(fd, block, sizeof block);
+  const int err = n == ssize_t(sizeof block) ? 0 : (n < 0 ? errno : ENOSPC);
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return err ? std::strerror(err) : "";
+}
+
+std::string hdf5_failure_reason(const std::string& file) {
   std::string desc;
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, innermost, &desc);
-  // The sec2 and MPI-IO drivers put the OS's words in the description:
-  // "... errno = 28, error message = 'No space left on device', ..." or "MPI_File_...: <MPI error string>".
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, collect, &desc);
+  // The sec2 driver puts the OS's words in the description ("errno = 28, error message =
+  // 'No space left on device'"); the MPI-IO driver does not.
   std::smatch m;
   if (std::regex_search(desc, m, std::regex("error message = '([^']*)'"))) return m[1];
-  if (std::regex_search(desc, m, std::regex("MPI_File[A-Za-z_]* failed[^:]*:? *(.*)"))) return m[1].str().empty() ? desc : m[1].str();
-  return desc.empty() ? "HDF5 reported a write error" : desc;
+  const std::string first = desc.substr(0, desc.find('\n'));
+  const std::string os = os_write_reason(file);
+  if (!os.empty()) return os;
+  return first.empty() ? "HDF5 reported a write error" : "HDF5: " + first + " (the file system reports no error)";
 }
 
 bool injected_write_failure(const std::string& file, int rank) {

@@ -19,9 +19,10 @@ namespace cassini {
 // Where io_failure also appends its message (rank 0's run.log); empty: stderr only.
 void set_io_failure_log(const std::string& path);
 
-// The operating system's reason behind the innermost error on HDF5's error stack
-// ("No space left on device"), or the innermost HDF5 description when it names none.
-std::string hdf5_failure_reason();
+// The operating system's reason why a write to `file` failed ("No space left on device"):
+// from HDF5's error stack when it has one, else by asking the file system.
+std::string hdf5_failure_reason(const std::string& file);
+std::string os_write_reason(const std::string& file);
 
 // Tests only: CASSINI_FAIL_WRITE=<file name part>[@rank] makes the first matching write
 // on that rank fail as if the disk were full (for machines where a test cannot mount a tmpfs).

@@ -21,6 +21,12 @@ namespace cassini {
 
 namespace {
 
+// errno is often gone by the time a stream reports failure (a later flush): ask the file system.
+std::string write_reason(const std::string& file) {
+  const std::string os = os_write_reason(file);
+  return os.empty() ? std::string("the write failed (the file system reports no error)") : os;
+}
+
 const char* kMarker = ".cassini-run";  // written into every run directory cassini creates
 
 bool inside(const fs::path& p, const fs::path& dir) {  // p is dir or below it (both canonical)
@@ -95,7 +101,7 @@ RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm, const st
 void RunOutput::checked_flush(std::ofstream& out, const std::string& name) {
   out.flush();
   if (!out || injected_write_failure(name, rank_)) {
-    const std::string why = out ? "No space left on device (injected by CASSINI_FAIL_WRITE)" : std::strerror(errno);
+    const std::string why = out ? "No space left on device (injected by CASSINI_FAIL_WRITE)" : write_reason(dir_ + "/" + name);
     set_io_failure_log("");  // run.log may be the file that failed
     io_failure(dir_ + "/" + name, why);
   }
@@ -121,7 +127,8 @@ void RunOutput::write_text(const std::string& name, const std::string& text) {
   std::ofstream out(tmp);
   out << text;
   out.close();
-  if (!out || injected_write_failure(name, rank_)) io_failure(path, out ? "injected failure" : std::strerror(errno));
+  if (!out || injected_write_failure(name, rank_))
+    io_failure(path, out ? "No space left on device (injected by CASSINI_FAIL_WRITE)" : write_reason(path));
   fs::rename(tmp, path);
 }
 
@@ -201,7 +208,7 @@ void RunOutput::dump(const Simulation& sim, const std::string& tag) {
       out << p.id[i] << " " << p.species[i] << " " << p.radius[i] << " " << p.x[i][0] << " " << p.x[i][1] << " "
           << p.x[i][2] << " " << p.v[i][0] << " " << p.v[i][1] << " " << p.v[i][2] << "\n";
     out.close();
-    if (!out) io_failure(tmp, std::strerror(errno));
+    if (!out) io_failure(tmp, write_reason(tmp));
   }
   fs::rename(tmp, name.str());
 }

@@ -341,7 +341,10 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
        << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/velocity/value</DataItem>\n   </Attribute>\n";
     xm << "  </Grid>\n </Domain>\n</Xdmf>\n";
     xm.close();
-    if (!xm) io_failure(final_name.substr(0, final_name.size() - 5) + ".xdmf", std::strerror(errno));
+    if (!xm) {
+      const std::string side = final_name.substr(0, final_name.size() - 5) + ".xdmf";
+      io_failure(side, os_write_reason(side));
+    }
   }
   MPI_Barrier(dom.comm);
   return final_name;

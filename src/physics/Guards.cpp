@@ -29,7 +29,7 @@ void Guards::initial_integrate(Simulation& sim) {
   double w = -1;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (!p.x[i].allFinite() || !p.v[i].allFinite()) { worst = i; w = INFINITY; break; }
-    const double s = (p.v[i] - sim.imposed_flow(p.x[i])).squaredNorm();
+    const double s = (p.v[i] - sim.imposed_flow(p.x[i])).stableNorm();  // no overflow of the square
     if (s > w) { w = s; worst = i; }
   }
   std::ostringstream os;
@@ -37,10 +37,10 @@ void Guards::initial_integrate(Simulation& sim) {
     os << "non-finite position or velocity of particle " << p.id[worst] << " (x = " << p.x[worst].transpose()
        << ", v = " << p.v[worst].transpose() << ")";
   } else {
-    os << "particle " << p.id[worst] << " moved " << sim.dt * std::sqrt(w) / std::sqrt(step_limit2_) * max_step_
-       << " of the smallest radius in one step (relative to the imposed flow), more than guards.max_step = " << max_step_
-       << ": it can pass through other particles unseen (tunnelling); |v - u| = " << std::sqrt(w)
-       << " m/s, dt = " << sim.dt << " s";
+    os << "particle " << p.id[worst] << " moved " << sim.dt * w / std::sqrt(step_limit2_) * max_step_
+       << " smallest radii in one step (relative to the imposed flow), more than guards.max_step = " << max_step_
+       << ": it can pass through other particles unseen (tunnelling); |v - u| = " << w << " m/s, dt = " << sim.dt
+       << " s";
   }
   sim.raise_guard(os.str());
 }
