@@ -145,6 +145,57 @@ TEST(CoarseGraining, FluctuationsAboutTheShearFlowVanishForParticlesOnIt) {
   for (std::size_t p = 0; p < g.size(); ++p) EXPECT_NEAR(out.background[6 * p], 0.0, 1e-24);
 }
 
+TEST(CoarseGraining, ShearedImagesCarryTheVelocityJump) {
+  // A uniform sheared gas in a Lees-Edwards box: v = (rate y + sigma s_x, sigma s_y, 0) with
+  // s = +-1 in a checkerboard (zero local mean, variance sigma^2 exactly). The CG velocity must be
+  // rate y at every grid point, within a kernel width of the sheared boundary as much as in the
+  // middle; the kinetic stress yy / rho must be sigma^2 there, and xx / rho the same near the
+  // boundary as in the middle (translation invariance of homogeneous shear).
+  Frame f;
+  f.lo = {-5, -3, -2};
+  f.length = {10, 6, 4};
+  f.periodic = {true, true, true};
+  f.sheared = true;
+  const double rate = 0.25, sigma = 0.05, spacing = 0.05;
+  f.le_rate = rate;
+  f.le_offset = 3.7;  // any offset: the images' positions and velocities must agree
+  const int nx = 200, ny = 120;
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j) {
+      const double x = -5 + (i + 0.5) * spacing, y = -3 + (j + 0.5) * spacing;
+      f.x.insert(f.x.end(), {x, y, 0.0});
+      f.v.insert(f.v.end(), {rate * y + sigma * (i % 2 ? 1 : -1), sigma * (j % 2 ? 1 : -1), 0.0});
+      f.m.push_back(1.0);
+    }
+  Grid g;
+  g.dims = 2;
+  g.n = {20, 24, 1};
+  g.lo = {-5, -3, -2};
+  g.hi = {5, 3, 2};
+  Fields out;
+  out.resize(g.size());
+  const double w = 0.4;
+  accumulate(f, 0, f.m.size(), g, Kernel("gauss", w, 2), Background{rate}, out);
+  finish(out, g.size());
+  const std::size_t middle = (std::size_t(12) * g.n[0]) + 10;
+  const double xx_middle = out.kinetic[6 * middle] / out.density[middle];
+  for (int ky = 0; ky < g.n[1]; ++ky)
+    for (int kx = 0; kx < g.n[0]; ++kx) {
+      const std::size_t p = std::size_t(ky) * g.n[0] + kx;
+      const double rho = out.density[p], y = g.centre(1, ky);
+      // Discreteness of the lattice under the kernel: ~1e-4 of rate Ly; the old error was ~rate Ly / 2.
+      EXPECT_NEAR(out.momentum[3 * p] / rho, rate * y, 2e-4) << "at y = " << y;
+      EXPECT_NEAR(out.kinetic[6 * p + 1] / rho, sigma * sigma, 1e-3 * sigma * sigma) << "yy at y = " << y;
+      EXPECT_NEAR(out.kinetic[6 * p] / rho, xx_middle, 1e-3 * xx_middle) << "xx at y = " << y;
+      // About the background shear: exactly the sampled dispersion, 2 sigma^2 over x and y.
+      EXPECT_NEAR((out.background[6 * p] + out.background[6 * p + 1]) / rho, 2 * sigma * sigma, 1e-3 * sigma * sigma);
+    }
+  // xx about the local mean: sigma^2 plus the shear across the kernel, rate^2 <dy^2>; for the 2D
+  // Gaussian cut at r = 3w, <dy^2> = <r^2>/2 = w^2 (1 - 5.5 e^-4.5) / (1 - e^-4.5) = 0.949 w^2.
+  const double dy2 = w * w * (1 - 5.5 * std::exp(-4.5)) / (1 - std::exp(-4.5));
+  EXPECT_NEAR(xx_middle, sigma * sigma + rate * rate * dy2, 0.01 * rate * rate * dy2);
+}
+
 TEST(CoarseGraining, ContactStressOfAStaticPackingEqualsTheVirial) {
   // A compressed, slightly disordered periodic packing at rest: the volume average of the CG
   // contact stress equals (1/V) sum_pairs f l (compression positive) to round-off, including

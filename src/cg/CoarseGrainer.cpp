@@ -15,6 +15,7 @@ namespace {
 struct Hit {
   std::size_t point;
   double w;
+  int image_y;  // which Lees-Edwards image the weight belongs to (-1, 0, +1 box heights in y)
 };
 
 // Kernel weights of the point x and of its periodic (and sheared) images on the grid.
@@ -48,7 +49,7 @@ double gather_hits(const Frame& f, const double* x, const Grid& g, const Kernel&
               }
               const double w = k(r2);
               if (w <= 0) continue;
-              hits.push_back({(std::size_t(kz) * g.n[1] + ky) * g.n[0] + kx, w});
+              hits.push_back({(std::size_t(kz) * g.n[1] + ky) * g.n[0] + kx, w, iy});
               total += w;
             }
       }
@@ -95,18 +96,23 @@ void accumulate(const Frame& f, std::size_t begin, std::size_t end, const Grid& 
     const double total = gather_hits(f, x, g, k, hits);
     if (total <= 0) continue;  // outside the grid entirely
     const double m = f.m[p], scale = m / (total * dv);
-    const double u = v[0] - bg.shear * x[1];  // fluctuation about the background flow
-    const double b[3] = {u, v[1], v[2]};
     const double* F = f.body.empty() ? nullptr : &f.body[3 * p];
     for (const Hit& h : hits) {
       const double s = scale * h.w;
+      // A Lees-Edwards image one box height up moves faster by rate * Ly: it is the particle
+      // as seen across the sheared boundary (the solver's ghosts carry the same jump).
+      const double jump = f.sheared ? h.image_y * f.le_rate * f.length[1] : 0.0;
+      const double vi[3] = {v[0] + jump, v[1], v[2]};
+      // Fluctuation about the background flow at the image's position (unchanged by the jump
+      // when the background is the run's own shear).
+      const double b[3] = {vi[0] - bg.shear * (x[1] + h.image_y * f.length[1]), v[1], v[2]};
       if (F)
         for (int d = 0; d < 3; ++d) out.body[3 * h.point + d] += h.w / (total * dv) * F[d];
       out.density[h.point] += s;
-      for (int d = 0; d < 3; ++d) out.momentum[3 * h.point + d] += s * v[d];
+      for (int d = 0; d < 3; ++d) out.momentum[3 * h.point + d] += s * vi[d];
       const int a[6] = {0, 1, 2, 0, 0, 1}, bb[6] = {0, 1, 2, 1, 2, 2};
       for (int q = 0; q < 6; ++q) {
-        out.kinetic[6 * h.point + q] += s * v[a[q]] * v[bb[q]];
+        out.kinetic[6 * h.point + q] += s * vi[a[q]] * vi[bb[q]];
         out.background[6 * h.point + q] += s * b[a[q]] * b[bb[q]];
       }
     }
