@@ -4,6 +4,8 @@
 #include <iostream>
 #include <sstream>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <hdf5.h>
 #include <mpi.h>
@@ -66,6 +68,18 @@ int main(int argc, char** argv) {
     resolved << cf.table();
     out.write_text("case.toml", resolved.str() + "\n");
     out.case_text = resolved.str();
+    // A run's name: new for a fresh run, inherited by a continuation (cassini-cg mixes frames
+    // of one run only). Not a physics choice: the clock and process id are fine here.
+    out.run_id = restart.empty() ? "" : snapshot_parameter(restart, "run_id");
+    if (out.run_id.empty()) {
+      std::uint64_t h = std::hash<std::string>{}(out.case_text) ^
+                        std::uint64_t(std::chrono::system_clock::now().time_since_epoch().count()) * 0x9E3779B97F4A7C15ull ^
+                        std::uint64_t(getpid());
+      MPI_Bcast(&h, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+      std::ostringstream id;
+      id << std::hex << h;
+      out.run_id = id.str();
+    }
 
     if (ensemble > 0) {
       out.log("cassini: " + file + ": ensemble of " + std::to_string(ensemble) + " runs on " + std::to_string(nranks) +

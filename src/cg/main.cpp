@@ -11,8 +11,10 @@
 #include <CLI/CLI.hpp>
 #include <hdf5.h>
 #include <mpi.h>
+#include <unistd.h>
 
 #include "cg/CoarseGrainer.hpp"
+#include "io/Snapshot.hpp"
 
 using namespace cassini::cg;
 namespace fs = std::filesystem;
@@ -296,18 +298,33 @@ int main(int argc, char** argv) {
                                       "up to the wall (for a system at rest)")->check(CLI::NonNegativeNumber);
   app.add_option("--out", out, "output HDF5 file (default fields.h5)");
   app.add_flag("--force", force, "overwrite an existing output file");
+  bool mix_runs = false;
+  app.add_flag("--mix-runs", mix_runs, "average frames of different runs (e.g. several seeds); refused without it");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = rank == 0 ? app.exit(e) : 1;
+    const int shown = rank == 0 ? app.exit(e) : e.get_exit_code();
     MPI_Finalize();
-    return code;
+    return shown == 0 ? 0 : 2;  // --help succeeds; every command-line error exits 2
   }
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   int code = 0;
   try {
-    if (rank == 0 && fs::exists(out) && !force) fail(out + " exists: pass --force to overwrite");
+    if (app.count("--width") && !(width > 0)) fail("--width: expected a positive kernel width in metres, got " + std::to_string(width));
+    if (fs::exists(out) && fs::is_directory(out)) fail("--out " + out + " is a directory, expected an HDF5 file name");
+    if (fs::exists(out) && !force) fail(out + " exists: pass --force to overwrite");
     files = select_frames(files, frames);
+    // Frames of different runs (another seed, another case) average into nothing meaningful.
+    if (!mix_runs) {
+      auto identity = [](const std::string& f) {
+        const std::string id = cassini::snapshot_parameter(f, "run_id");
+        return id.empty() ? cassini::snapshot_parameter(f, "case") : id;  // older snapshots: their case
+      };
+      const std::string first = identity(files.front());
+      for (const auto& f : files)
+        if (identity(f) != first)
+          fail(f + " is from another run than " + files.front() + ": pass --mix-runs to average frames of different runs");
+    }
     Fields sum;
     Grid g;
     std::string dims_note;
@@ -318,8 +335,22 @@ int main(int argc, char** argv) {
         if (!grid_spec.empty()) {
           std::stringstream ss(grid_spec);
           std::string part;
-          while (std::getline(ss, part, 'x')) n.push_back(std::stoi(part));
+          while (std::getline(ss, part, 'x')) {
+            char* end = nullptr;
+            const long v = std::strtol(part.c_str(), &end, 10);
+            if (part.empty() || end != part.c_str() + part.size() || v < 1 || v > 100000)
+              fail("--grid: expected NX, NXxNY or NXxNYxNZ with positive counts, got '" + grid_spec + "'");
+            n.push_back(int(v));
+          }
           if (n.empty() || n.size() > 3) fail("--grid: expected NX, NXxNY or NXxNYxNZ, got '" + grid_spec + "'");
+          double points = 1;
+          for (int v : n) points *= v;
+          // 1 + 3 + 6 + 6 + 9 + 9 + 3 + 3 doubles per point, summed and written: refuse what cannot fit.
+          const double bytes = points * 40 * 8 * 2;
+          const double ram = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+          if (bytes > 0.8 * ram)
+            fail("--grid " + grid_spec + ": the fields would need " + std::to_string(bytes / 1e9) + " GB per rank, more than this machine's " +
+                 std::to_string(ram / 1e9) + " GB");
         } else {
           n = L.planar ? std::vector<int>{100, 100} : std::vector<int>{50, 50, 50};
         }

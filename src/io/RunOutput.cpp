@@ -182,7 +182,7 @@ void RunOutput::observe(Simulation& sim) {
 
 void RunOutput::snapshot(Simulation& sim) {
   const double start = MPI_Wtime();
-  const std::string file = write_snapshot(sim, dir_, case_text);
+  const std::string file = write_snapshot(sim, dir_, case_text, run_id);
   const double seconds = MPI_Wtime() - start;
   const long particles = sim.total_particles();  // collective
   if (rank_ != 0) return;  // run.log only: a line per frame would crowd the progress output
@@ -244,6 +244,7 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
      << "  \"status\": " << json_string(status) << ",\n"
      << "  \"stop_reason\": " << json_string(reason) << ",\n"
      << "  \"case\": " << json_string(sim.cfg.source) << ",\n"
+     << "  \"run_id\": " << json_string(run_id) << ",\n"
      << "  \"ranks\": " << sim.domain.nranks << ",\n"
      << "  \"steps\": " << steps << ",\n"
      << "  \"final_step\": " << sim.step_count << ",\n"

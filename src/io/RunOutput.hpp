@@ -38,6 +38,7 @@ class RunOutput {
   void snapshot(Simulation& sim);                    // collective: dir/snap_<step>.h5md
   const std::string& dir() const { return dir_; }
   std::string case_text;                             // resolved case, stored in snapshots
+  std::string run_id;                                // names the run in snapshots (kept on restart)
 
  private:
   void checked_flush(std::ofstream& out, const std::string& name);  // a failed write ends the job

@@ -110,7 +110,8 @@ std::int64_t bits_id(double d) { std::int64_t i; std::memcpy(&i, &d, 8); return 
 
 }  // namespace
 
-std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text) {
+std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text,
+                           const std::string& run_id) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   sim.restart_point = true;  // a restart starts with a rebuild (and module setup): do the same
   sim.rebuild();             // here, so that both continue alike
@@ -304,6 +305,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     {
       Handle params(H5Gopen2(file, "parameters", H5P_DEFAULT), H5Gclose, "group parameters");
       attr_string(params, "case", case_text);
+      if (!run_id.empty()) attr_string(params, "run_id", run_id);
       attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
       const double state[3] = {time, dom.shear.offset, sim.dt};
       small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, state, dxpl);
@@ -479,13 +481,13 @@ void read_snapshot(Simulation& sim, const std::string& path) {
   }
 }
 
-std::string snapshot_case_text(const std::string& path) {
+std::string snapshot_parameter(const std::string& path, const std::string& name) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // serial: every rank reads the attribute
   if (file < 0) throw ConfigError(path + ": not a readable HDF5 file (truncated, or not a cassini snapshot)");
   std::string text;
-  if (H5Aexists_by_name(file, "parameters", "case", H5P_DEFAULT) > 0) {
-    const hid_t a = H5Aopen_by_name(file, "parameters", "case", H5P_DEFAULT, H5P_DEFAULT);
+  if (H5Aexists_by_name(file, "parameters", name.c_str(), H5P_DEFAULT) > 0) {
+    const hid_t a = H5Aopen_by_name(file, "parameters", name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
     const hid_t type = H5Aget_type(a);
     text.resize(H5Tget_size(type));
     if (H5Aread(a, type, text.data()) < 0) text.clear();
@@ -494,6 +496,11 @@ std::string snapshot_case_text(const std::string& path) {
     text = text.c_str();  // drop the terminating NUL
   }
   H5Fclose(file);
+  return text;
+}
+
+std::string snapshot_case_text(const std::string& path) {
+  std::string text = snapshot_parameter(path, "case");
   if (text.empty()) throw ConfigError(path + ": not a complete cassini snapshot (it stores no case)");
   return text;
 }

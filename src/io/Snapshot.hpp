@@ -16,7 +16,7 @@
 //   contacts/{pair_ids, position_i, branch, force}   pair forces, each pair once (contacts and
 //                                  lubrication), at the snapshot state: for stress (cassini-cg)
 //   contacts/{wall_particle, wall_point, wall_branch, wall_force}   particle-wall contacts
-//   parameters/                    case (resolved TOML text), units; wall_xi per particle
+//   parameters/                    case (resolved TOML text), run_id, units; wall_xi per particle
 //   parameters/state/<name>        run state a restart restores (inlet ids, clog timer, outlet counts)
 //   results                        attributes: the run's results so far (as in summary.json)
 // (* only when the scene rotates)
@@ -33,11 +33,15 @@ class CaseFile;
 // (domain.slab_axis, domain.decomposition, domain.balance_every). Also refuses a missing file.
 void check_restart_case(const std::string& snapshot, const CaseFile& now);
 
+// A string attribute of a snapshot's parameters group ("" when absent: older snapshots).
+std::string snapshot_parameter(const std::string& snapshot, const std::string& name);
 // The resolved case text stored in a snapshot (parameters/case); throws if there is none.
 std::string snapshot_case_text(const std::string& snapshot);
 
-// Writes the current state of `sim` to dir/snap_<step>.h5md; returns the file name.
-std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text);
+// Writes the current state of `sim` to dir/snap_<step>.h5md; returns the file name. run_id
+// names the run (kept across restarts), so that cassini-cg can refuse to mix runs.
+std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text,
+                           const std::string& run_id = "");
 
 // Replaces the particles of a freshly constructed (not yet set up) simulation by those of a
 // snapshot, with contact history, step, time and shear offset. Collective.
