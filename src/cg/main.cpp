@@ -317,6 +317,7 @@ int main(int argc, char** argv) {
     // Frames of different runs (another seed, another case) average into nothing meaningful.
     if (!mix_runs) {
       auto identity = [](const std::string& f) {
+        if (!fs::exists(f)) fail(f + ": no such snapshot");
         const std::string id = cassini::snapshot_parameter(f, "run_id");
         return id.empty() ? cassini::snapshot_parameter(f, "case") : id;  // older snapshots: their case
       };

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <unordered_map>
 
+#include <unistd.h>
+
 #include "core/CaseFile.hpp"
 
 namespace cassini {
@@ -233,6 +235,17 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
     }
   } else {
     const long n = resolve_count(cfg);
+    // A count that cannot fit is refused by name, not met with bad_alloc halfway through.
+    // ~1 kB per particle: state, neighbour entries, ghosts and halo buffers (scripts/bench).
+    const double need = 1000.0 * double(n), ram = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+    if (need > 0.8 * ram) {
+      const std::string key = cfg.count > 0 ? "particles.count"
+                              : cfg.optical_depth > 0 ? "particles.optical_depth" : "particles.volume_fraction";
+      std::ostringstream os;
+      os << cfg.source << ": key '" << key << "': " << n << " particles would need about " << need / 1e9
+         << " GB (~1 kB each), more than this machine's " << ram / 1e9 << " GB";
+      throw ConfigError(os.str());
+    }
     cands = cfg.init == "random" ? random_positions(cfg, n, rng) : lattice_positions(cfg, n, rng);
     for (long k = 0; k < n; ++k) {
       Vec3 v = cfg.velocity_mean;

@@ -1,0 +1,224 @@
+#!/usr/bin/python3
+"""Nothing lost, nothing hangs, nothing unexplained: cassini's command-line and fault contract.
+
+Runs the solver (and cassini-cg) as a user would, on a tiny gas, and checks how each bad
+input, dangerous --out, mismatched restart, guard stop and full disk ends: exit code, one
+clear message naming what went wrong, valid summary.json, and no file of the user's touched.
+A full disk is a real tmpfs when this runs as root and may mount one; otherwise the
+write-failure injection (CASSINI_FAIL_WRITE) stands in for it. Prints one line per case.
+
+usage: reliability.py CASSINI CASSINI_CG CASE_DIR WORK MPIEXEC [MPI flags...]
+"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+import h5py
+
+cassini, cg, case_dir, work, mpiexec = [os.path.abspath(a) if i < 4 else a for i, a in enumerate(sys.argv[1:6])]
+mpi_flags = sys.argv[6:]
+results = []
+
+
+def run(args, ranks=2, cwd=None, env=None, exe=None, timeout=120):
+    """Runs cassini (or exe) under mpiexec; returns (exit code, stdout + stderr, seconds)."""
+    full_env = dict(os.environ, **(env or {}))
+    cmd = [mpiexec, "-n", str(ranks), *mpi_flags]
+    for k in (env or {}):
+        cmd += ["-x", k]
+    cmd += [exe or cassini, *args]
+    t0 = time.time()
+    try:
+        p = subprocess.run(cmd, cwd=cwd or work, env=full_env, capture_output=True, text=True, timeout=timeout)
+        return p.returncode, p.stdout + p.stderr, time.time() - t0
+    except subprocess.TimeoutExpired as e:
+        return "hung", str(e.stdout or "") + str(e.stderr or ""), time.time() - t0
+
+
+def check(name, ok, detail=""):
+    results.append((name, bool(ok)))
+    print(("PASS " if ok else "FAIL ") + name + ("" if ok else ": " + detail[-1500:]))
+
+
+def write(path, text):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def summary(run_dir):
+    with open(os.path.join(run_dir, "summary.json")) as f:
+        return json.load(f)  # raises on inf/NaN or broken JSON
+
+
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+shutil.copytree(case_dir, os.path.join(work, "gas"))
+short = ["--set", "time.end=2e-5", "--set", "output.snapshot_every=1e-5"]
+
+# ---- 1. --force never deletes what cassini did not make
+rc, out, _ = run(["gas", "--out", "gas", "--force", *short])
+check("--out = the case directory is refused", rc == 2 and "holds" in out and os.path.exists(f"{work}/gas/case.toml"), out)
+write(f"{work}/afile", "user data\n")
+rc, out, _ = run(["gas", "--out", "afile", "--force", *short])
+check("--out = a regular file is refused", rc == 2 and open(f"{work}/afile").read() == "user data\n", out)
+os.makedirs(f"{work}/sub/deeper", exist_ok=True)
+write(f"{work}/sub/keep.txt", "keep\n")
+for target in (".", ".."):
+    rc, out, _ = run([f"{work}/gas", "--out", target, "--force", *short], cwd=f"{work}/sub/deeper")
+    check(f"--out {target} (working directory or a parent) is refused",
+          rc == 2 and "working directory" in out and os.path.exists(f"{work}/sub/keep.txt"), out)
+write(f"{work}/mine/precious.txt", "thesis draft\n")
+rc, out, _ = run(["gas", "--out", "mine", "--force", *short])
+check("--force on a directory cassini did not make is refused",
+      rc == 2 and "nothing was deleted" in out and os.path.exists(f"{work}/mine/precious.txt"), out)
+rc, out, _ = run(["gas", "--out", "r1", *short])
+check("a first run completes", rc == 0 and os.path.exists(f"{work}/r1/snap_000000100.h5md"), out)
+write(f"{work}/r1/notes.txt", "x")
+rc, out, _ = run(["gas", "--out", "r1", *short])
+check("an existing run directory without --force is refused", rc == 2 and "--force" in out, out)
+rc, out, _ = run(["gas", "--out", "r1", "--force", *short])
+check("--force replaces a run directory cassini made", rc == 0 and not os.path.exists(f"{work}/r1/notes.txt"), out)
+
+# ---- 2. restarts check what they continue, and never delete their source
+snap = "r1/snap_000000050.h5md"
+rc, out, _ = run(["gas", "--restart", snap, "--out", "r1", "--force"])
+check("continuing in place is refused up front, the source kept",
+      rc == 2 and "continuing a run in place" in out and os.path.exists(f"{work}/{snap}"), out)
+rc, out, _ = run(["gas", "--restart", "r1/nope.h5md", "--out", "r2"])
+check("a missing restart file is named, nothing created",
+      rc == 2 and "no such file" in out and not os.path.exists(f"{work}/r2"), out)
+for key, value in (("species.0.radius", "0.0004"), ("species.0.density", "2600.0"), ("domain.hi", "[0.04, 0.02, 0.02]"),
+                   ("particles.volume_fraction", "0.25")):
+    rc, out, _ = run(["gas", "--restart", snap, "--out", "r2", "--set", f"{key}={value}"])
+    short_key = key.replace(".0.", "[0].")
+    check(f"restart with another {key} is refused naming the key",
+          rc == 2 and short_key in out and "was made with" in out and not os.path.exists(f"{work}/r2"), out)
+rc, out, _ = run(["gas", "--restart", snap, "--out", "r2", "--set", "time.end=3e-5", "--set", "guards.max_overlap=0.3",
+                  "--set", "output.snapshot_every=1e-5"])
+check("restart with a new end time and guards runs", rc == 0, out)
+run_id = summary(f"{work}/r1")["run_id"]
+check("a continuation keeps the run id", summary(f"{work}/r2")["run_id"] == run_id and run_id, str(run_id))
+
+# ---- 3. every stop is explained; summary.json is always valid JSON
+s = summary(f"{work}/r1")
+check("summary.json of a completed run", s["status"] == "completed" and s["stop_reason"] == "reached time.end", str(s))
+guard_re = re.compile(r"guard tripped at step \d+, t = [0-9.e+-]+ s, rank \d: .*particle \d+")
+for label, line, needle in (("1e308 speed", "0.02 0.01 0.01 1e308 0 0 0.0005", "tunnelling"),
+                            ("ten diameters per step", "0.02 0.01 0.01 5000 0 0 0.0005", "tunnelling")):
+    write(f"{work}/fast/p.txt", line + "\n0.025 0.01 0.01 0 0 0 0.0005\n")
+    case = open(f"{work}/gas/case.toml").read()
+    case = case.replace('init = "random"', 'init = "file"\nfile = "p.txt"').replace("volume_fraction = 0.3\n", "")
+    case = case.replace("velocity_sigma = 0.1             # m/s per component\n", "")
+    write(f"{work}/fast/case.toml", case)
+    out_dir = f"fast_{label.split()[0]}"
+    rc, out, _ = run(["fast", "--out", out_dir, "--set", "time.end=1e-5"])
+    s = summary(f"{work}/{out_dir}")
+    dumps = os.listdir(f"{work}/{out_dir}/dump")
+    m = re.search(r"at step (\d+)", s.get("stop_reason", ""))
+    check(f"{label}: guard stop with step, time, rank, particle, cause; valid summary",
+          rc == 3 and guard_re.search(out) and needle in out and s["status"] == "stopped by a guard"
+          and needle in s["stop_reason"], out)
+    check(f"{label}: the diagnostic dump is of the step reported",
+          m and any(d.startswith("diagnostic_%09d" % int(m.group(1))) for d in dumps), str(dumps) + out)
+write(f"{work}/ovl/p.txt", "0.02 0.01 0.01 0 0 0 0.0005\n0.0205 0.01 0.01 0 0 0 0.0005\n")
+write(f"{work}/ovl/case.toml", open(f"{work}/fast/case.toml").read())
+rc, out, _ = run(["ovl", "--out", "ovl_run"])
+s = summary(f"{work}/ovl_run")
+log = open(f"{work}/ovl_run/run.log").read()
+check("an error after the output exists reaches run.log and summary.json",
+      rc == 2 and s["status"] == "error" and "overlap" in s["stop_reason"] and "overlap" in log, out + log)
+
+# ---- 4. exit codes and messages
+for label, args, code, needle in (
+        ("unknown option", ["gas", "--bogus"], 2, "--bogus"),
+        ("no case", [], 2, "case is required"),
+        ("--help", ["--help"], 0, "Usage"),
+        ("missing case", ["nowhere"], 2, "no such case file"),
+        ("--ensemble 0", ["gas", "--ensemble", "0"], 2, "ensemble")):
+    rc, out, _ = run(args)
+    check(f"{label}: exit {code}", rc == code and needle in out, f"rc={rc} {out}")
+os.makedirs(f"{work}/dircase/case.toml", exist_ok=True)
+rc, out, _ = run(["dircase", "--out", "x1"])
+check("case.toml that is a directory is refused", rc == 2 and "is a directory" in out, out)
+write(f"{work}/typo/case.toml", open(f"{work}/gas/case.toml").read().replace("end = 0.02", "ned = 0.02"))
+rc, out, _ = run(["typo", "--out", "x2"])
+check("a typo of a required key names what was written", rc == 2 and "time.end" in out and "time.ned" in out, out)
+write(f"{work}/typo2/case.toml", open(f"{work}/gas/case.toml").read().replace("[time]", "[tme]"))
+rc, out, _ = run(["typo2", "--out", "x3"])
+check("a misspelt table is reported, not only the keys it hides", rc == 2 and "tme.end" in out, out)
+write(f"{work}/nan/p.txt", "0.02 0.01 0.01 0 nan 0 0.0005\n")
+write(f"{work}/nan/case.toml", open(f"{work}/fast/case.toml").read())
+rc, out, _ = run(["nan", "--out", "x4"])
+check("NaN in an init file names the field", rc == 2 and "field 'vy'" in out, out)
+rc, out, _ = run(["gas", "--out", "x5", "--set", "particles.volume_fraction=0.3", "--set", "domain.hi=[30.0,20.0,20.0]"])
+check("a particle count that cannot fit is refused with the memory it needs", rc == 2 and "GB" in out, out)
+
+# ---- 5. cassini-cg
+rc, out, _ = run(["r1/snap_000000100.h5md", "r1/snap_999.h5md"], exe=cg)
+check("cassini-cg names a missing snapshot", rc == 2 and "no such snapshot" in out, out)
+rc, out, _ = run(["r1", "--grid", "0x-3"], exe=cg)
+check("cassini-cg --grid 0x-3 refused", rc == 2 and "--grid" in out, out)
+rc, out, _ = run(["r1", "--width", "-1"], exe=cg)
+check("cassini-cg --width -1 refused", rc == 2 and "--width" in out, out)
+rc, out, _ = run(["gas", "--out", "r3", *short])
+rc, out, _ = run(["r1/snap_000000100.h5md", "r3/snap_000000100.h5md", "--out", "mix.h5"], exe=cg)
+check("cassini-cg refuses frames of different runs", rc == 2 and "another run" in out, out)
+rc, out, _ = run(["r1/snap_000000100.h5md", "r3/snap_000000100.h5md", "--out", "mix.h5", "--mix-runs"], exe=cg)
+check("... unless --mix-runs", rc == 0, out)
+rc, out, _ = run(["r1/snap_000000100.h5md", "r2/snap_000000150.h5md", "--out", "cont.h5"], exe=cg)
+check("cassini-cg averages a run with its continuation", rc == 0, out)
+
+
+# ---- 6. a write failure on any rank ends the job, names the file and the reason
+def complete_frames(run_dir):
+    """Every snap_*.h5md must open and carry parameters@complete; returns their names."""
+    names = sorted(f for f in os.listdir(run_dir) if f.endswith(".h5md") and f.startswith("snap_"))
+    for n in names:
+        with h5py.File(os.path.join(run_dir, n), "r") as f:
+            assert f["parameters"].attrs["complete"] in (b"yes", "yes"), n
+    return names
+
+
+def disk_full_case(label, args, env, expect_file, run_dir):
+    rc, out, secs = run(args, env=env, timeout=90)
+    ok = rc not in (0, "hung") and secs < 30 and "No space left on device" in out and expect_file in out
+    try:
+        frames = complete_frames(run_dir)
+        ok = ok and all(not f.endswith(".h5md") or f in frames for f in os.listdir(run_dir) if f.startswith("snap_"))
+    except Exception as e:  # a frame that looks complete but is not
+        ok, out = False, out + f"\nincomplete frame: {e}"
+    check(f"{label}: all ranks stop in {secs:.1f} s naming {expect_file} and the reason", ok, f"rc={rc} {out}")
+
+
+more = ["--set", "time.end=4e-5", "--set", "output.snapshot_every=1e-5"]
+disk_full_case("injected failure on rank 1 mid-snapshot (rank 0 still writing)",
+               ["gas", "--out", "inj1", *more], {"CASSINI_FAIL_WRITE": "snap_000000100@1"},
+               "snap_000000100.h5md.partial", f"{work}/inj1")
+disk_full_case("injected failure of observables.h5md", ["gas", "--out", "inj2", *more],
+               {"CASSINI_FAIL_WRITE": "observables.h5md"}, "observables.h5md", f"{work}/inj2")
+tmpfs = f"{work}/tmpfs"
+os.makedirs(tmpfs)
+mounted = os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", tmpfs],
+                                               capture_output=True).returncode == 0
+if mounted:
+    try:
+        disk_full_case("full tmpfs during a snapshot (2 ranks)", ["gas", "--out", f"{tmpfs}/run", *more], {},
+                       ".h5md.partial", f"{tmpfs}/run")
+        subprocess.run(["umount", tmpfs])
+        subprocess.run(["mount", "-t", "tmpfs", "-o", "size=150k", "tmpfs", tmpfs])
+        disk_full_case("full tmpfs during observables.h5md", ["gas", "--out", f"{tmpfs}/run", "--set", "time.end=4e-5",
+                                                              "--set", "output.observe_every=2e-7"], {},
+                       "observables.h5md", f"{tmpfs}/run")
+    finally:
+        subprocess.run(["umount", tmpfs])
+else:
+    print("note: no tmpfs (not root or mount refused): the injected failures above stand in for a full disk")
+
+failed = [n for n, ok in results if not ok]
+print(f"\n{len(results) - len(failed)} of {len(results)} reliability cases passed")
+sys.exit(1 if failed else 0)
