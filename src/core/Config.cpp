@@ -137,6 +137,9 @@ Config read_config(CaseFile& f) {
   if (c.has_module("hill")) {
     c.hill_form = f.string("hill.form", "linear");
     if (c.hill_form != "linear" && c.hill_form != "exact") f.fail("hill.form", "\"linear\" or \"exact\"");
+    c.vertical_frequency = f.number("hill.vertical_frequency", 1.0);
+    if (!(c.vertical_frequency >= 1.0))
+      f.fail("hill.vertical_frequency", "Omega_z / Omega0 >= 1 (1: Saturn's tide alone; ring codes use 2-3.6 to mimic self-gravity)");
   }
   if (c.has_module("moonlet")) {
     c.moonlet_mass = positive(f, "moonlet.mass");

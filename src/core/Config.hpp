@@ -43,6 +43,7 @@ struct Config {
 
   // Hill frame (module "hill"): Saturn at (0, -r0), frame rotating at Omega0
   std::string hill_form = "linear";  // linear | exact
+  double vertical_frequency = 1.0;   // Omega_z / Omega0 of the vertical tide (> 1 mimics self-gravity)
   double saturn_mass = 5.68e26, orbit_radius = 1.17e8;
   double omega0() const;
 

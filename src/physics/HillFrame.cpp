@@ -8,15 +8,21 @@ namespace cassini {
 
 HillFrame::HillFrame(const Config& cfg)
     : exact_(cfg.hill_form == "exact"),
+      planar_(cfg.planar),
       omega_(cfg.omega0()),
       gm_(kGravitationalConstant * cfg.saturn_mass),
-      r0_(cfg.orbit_radius) {}
+      r0_(cfg.orbit_radius) {
+  const double wz = cfg.vertical_frequency * omega_;
+  extra_z2_ = exact_ ? wz * wz - omega_ * omega_ : wz * wz;
+}
 
 Vec3 HillFrame::acceleration(const Vec3& x) const {
-  if (!exact_) return Vec3(0, 3 * omega_ * omega_ * x[1], 0);
-  const Vec3 s(x[0], x[1] + r0_, 0);  // from Saturn
+  const double z = planar_ ? 0.0 : x[2];
+  if (!exact_) return Vec3(0, 3 * omega_ * omega_ * x[1], -extra_z2_ * z);
+  const Vec3 s(x[0], x[1] + r0_, z);  // from Saturn
   const double r = s.norm();
-  return (omega_ * omega_ - gm_ / (r * r * r)) * s;
+  const double g = gm_ / (r * r * r);
+  return Vec3((omega_ * omega_ - g) * s[0], (omega_ * omega_ - g) * s[1], -(g + extra_z2_) * z);
 }
 
 void HillFrame::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
@@ -27,11 +33,18 @@ void HillFrame::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) con
 void HillFrame::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   if (!exact_) {
-    const double k = 3 * omega_ * omega_;
+    const double k = 3 * omega_ * omega_, kz = extra_z2_;
     const Vec3* X = p.x.data();  // raw views: the stores to f could alias the vectors' pointers
     const double* M = p.mass.data();
     Vec3* F = p.f.data();
-    for (std::size_t i = 0; i < p.nlocal; ++i) F[i][1] += M[i] * k * X[i][1];
+    if (planar_) {
+      for (std::size_t i = 0; i < p.nlocal; ++i) F[i][1] += M[i] * k * X[i][1];
+    } else {
+      for (std::size_t i = 0; i < p.nlocal; ++i) {
+        F[i][1] += M[i] * k * X[i][1];
+        F[i][2] -= M[i] * kz * X[i][2];
+      }
+    }
     return;
   }
   for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * acceleration(p.x[i]);

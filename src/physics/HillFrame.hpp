@@ -2,8 +2,16 @@
 // Forces of the rotating (Hill) frame centred on a moonlet on a circular orbit of radius r0
 // around Saturn (spec section 2): x azimuthal, y radial outwards, Saturn at (0, -r0).
 //
-//   linear (default):  F = m (0, 3 Omega0^2 y)                     tidal (Hill) term
-//   exact:             F = -G M_S m (x, y + r0)/|.|^3 + m Omega0^2 (x, y + r0)
+//   linear (default):  F = m (0, 3 Omega0^2 y, -Omega_z^2 z)         tidal (Hill) terms
+//   exact:             F = -G M_S m (x, y + r0, z)/|.|^3 + m Omega0^2 (x, y + r0, 0)
+//                          - m (Omega_z^2 - Omega0^2) z e_z
+//
+// The vertical tide pulls particles back to the ring plane at frequency Omega_z; Saturn's
+// alone gives Omega_z = Omega0 (the exact form has it from the z in the distance), ring
+// simulations raise it (hill.vertical_frequency = Omega_z / Omega0, ~2-3.6) to stand in for
+// the ring's own vertical self-gravity. Velocity Verlet integrates the harmonic vertical
+// motion symplectically: the amplitude stays within (Omega_z dt)^2 of its start forever and
+// the frequency is (Omega_z dt)^2 / 24 fast (tests/test_hill_frame.cpp). Planar scenes skip it.
 //
 // The exact form subtracts two ~2.8 m/s^2 terms to leave ~1e-4 m/s^2 and so loses about five
 // significant digits; it is there to measure what the linearisation costs.
@@ -31,8 +39,9 @@ class HillFrame : public Module {
   Vec3 acceleration(const Vec3& x) const;
 
  private:
-  bool exact_;
+  bool exact_, planar_;
   double omega_, gm_, r0_;
+  double extra_z2_;  // vertical stiffness beyond Saturn's own: linear Omega_z^2, exact Omega_z^2 - Omega0^2
 };
 
 }  // namespace cassini
