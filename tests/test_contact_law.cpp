@@ -74,6 +74,45 @@ TEST(ContactLaw, HeadOnCollisionReproducesRestitutionAndDuration) {
   }
 }
 
+TEST(ContactLaw, UnlikeSpeciesUseTheirPairParameters) {
+  // Two species (e 0.9 / 0.5, t_c 1e-4 / 2e-4 s) collide head-on with unequal masses. Without a
+  // [[pair]] table the pair mixes: e = 0.7, t_c = 1.5e-4 s; with one, the pair's own values
+  // (e = 0.3, t_c = 5e-5 s). The spring-dashpot parametrised through the reduced mass must give
+  // exactly those (spec section 1): restitution to the scheme's 3 |ln e| / N_c, duration to a step.
+  const std::string two = std::string(kPair) + R"(
+[[species]]
+name = "soft"
+density = 1000.0
+radius = 0.001
+t_c = 2.0e-4
+e = 0.5
+)";
+  for (bool table : {false, true}) {
+    const std::string text = two + (table ? "[[pair]]\nspecies = [\"species0\", \"soft\"]\nt_c = 5.0e-5\ne = 0.3\n" : "");
+    auto sim = make_sim(text, {"species.0.e=0.9", "time.n_c=400"});
+    const double e = table ? 0.3 : 0.7, tc = table ? 5e-5 : 1.5e-4, nc = tc / sim->dt;
+    const double a = 0.001, v = 0.1, vol = 4.0 / 3.0 * std::numbers::pi * a * a * a;
+    const double gap = 0.37 * v * sim->dt;
+    sim->particles.add(0, 0, a, 2500.0 * vol, Vec3(-a - gap, 0, 0), Vec3(v, 0, 0));
+    sim->particles.add(1, 1, a, 1000.0 * vol, Vec3(a + gap, 0, 0), Vec3(-v, 0, 0));
+    sim->setup();
+    bool touched = false;
+    for (int s = 0; s < 100000; ++s) {
+      sim->step();
+      const double dist = (sim->particles.x[local_index(*sim, 0)] - sim->particles.x[local_index(*sim, 1)]).norm();
+      if (dist < 2 * a) touched = true;
+      if (touched && dist >= 2 * a) {
+        const double vrel = sim->particles.v[local_index(*sim, 1)][0] - sim->particles.v[local_index(*sim, 0)][0];
+        const double duration = sim->time - (dist - 2 * a) / vrel - gap / v;
+        EXPECT_NEAR(vrel / (2 * v), e, 3 * std::abs(std::log(e)) / nc * e) << (table ? "[[pair]]" : "mixed");
+        EXPECT_NEAR(duration, tc, sim->dt) << (table ? "[[pair]]" : "mixed");
+        break;
+      }
+    }
+    EXPECT_TRUE(touched);
+  }
+}
+
 TEST(ContactLaw, ErrorShrinksWithTimeStep) {
   // First-order convergence (see above): quadrupling N_c cuts the restitution error by ~4.
   const double e = 0.5;

@@ -8,7 +8,8 @@
 namespace cassini {
 
 bool Config::friction() const {
-  return std::any_of(species.begin(), species.end(), [](const Species& s) { return s.mu_s > 0; });
+  return std::any_of(species.begin(), species.end(), [](const Species& s) { return s.mu_s > 0; }) ||
+         std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.mu_s > 0; });
 }
 
 double Config::max_radius() const {
@@ -107,9 +108,43 @@ Config read_config(CaseFile& f) {
     if (s.mu_d > s.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
     s.kt_ratio = non_negative(f, p + "kt_ratio", 2.0 / 7.0);
     s.gammat_ratio = non_negative(f, p + "gammat_ratio", 2.0 / 7.0);
+    if (s.mu_s > 0 && !(s.kt_ratio > 0))  // a sliding spring is stretched to mu_d f_n / k_t
+      f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 when the species has friction (mu_s > 0)");
     for (const auto& other : c.species)
       if (other.name == s.name) f.fail(p + "name", "a name not used by another species");
     c.species.push_back(s);
+  }
+
+  // ---- contact parameters per species pair: mixed by default, [[pair]] tables override
+  const std::size_t n = c.species.size();
+  c.pairs.resize(n * n);
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = 0; b < n; ++b) {
+      const Species &s = c.species[a], &t = c.species[b];
+      c.pairs[a * n + b] = {0.5 * (s.t_c + t.t_c), 0.5 * (s.e + t.e), std::min(s.mu_s, t.mu_s), std::min(s.mu_d, t.mu_d),
+                            0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio)};
+    }
+  for (std::size_t k = 0, np = f.has("pair") ? f.array_size("pair") : 0; k < np; ++k) {
+    const std::string p = "pair[" + std::to_string(k) + "].";
+    const auto names = f.strings(p + "species");
+    std::size_t idx[2];
+    if (names.size() != 2) f.fail(p + "species", "two species names, e.g. [\"glass\", \"steel\"]");
+    for (int q = 0; q < 2; ++q) {
+      auto it = std::find_if(c.species.begin(), c.species.end(), [&](const Species& s) { return s.name == names[q]; });
+      if (it == c.species.end()) f.fail(p + "species", "names of [[species]]; unknown species '" + names[q] + "'");
+      idx[q] = std::size_t(it - c.species.begin());
+    }
+    PairParameters pp = c.pairs[idx[0] * n + idx[1]];
+    pp.t_c = positive(f, p + "t_c", pp.t_c);
+    pp.e = f.number(p + "e", pp.e);
+    if (!(pp.e > 0 && pp.e <= 1)) f.fail(p + "e", "a restitution coefficient in (0, 1]");
+    pp.mu_s = non_negative(f, p + "mu_s", pp.mu_s);
+    pp.mu_d = non_negative(f, p + "mu_d", std::min(pp.mu_d, pp.mu_s));
+    if (pp.mu_d > pp.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
+    pp.kt_ratio = non_negative(f, p + "kt_ratio", pp.kt_ratio);
+    pp.gammat_ratio = non_negative(f, p + "gammat_ratio", pp.gammat_ratio);
+    if (pp.mu_s > 0 && !(pp.kt_ratio > 0)) f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 with friction");
+    c.pairs[idx[0] * n + idx[1]] = c.pairs[idx[1] * n + idx[0]] = pp;
   }
 
   // ---- modules
@@ -169,6 +204,7 @@ Config read_config(CaseFile& f) {
   // ---- time: dt given directly or as t_c / n_c of the stiffest species
   double tc_min = 1e300;
   for (const auto& s : c.species) tc_min = std::min(tc_min, s.t_c);
+  for (const auto& q : c.pairs) tc_min = std::min(tc_min, q.t_c);  // a [[pair]] may be stiffer
   c.force_dt = f.boolean("time.force", false);
   if (f.has("time.dt") && f.has("time.n_c")) f.fail("time.n_c", "either time.dt or time.n_c, not both");
   if (f.has("time.dt")) {
@@ -185,6 +221,7 @@ Config read_config(CaseFile& f) {
   // 0.29 t_c at e = 0.1; see verlet_stability_limit) a run is refused even with time.force.
   double dt_stable = 1e300;
   for (const auto& s : c.species) dt_stable = std::min(dt_stable, verlet_stability_limit(s.t_c, s.e));
+  for (const auto& q : c.pairs) dt_stable = std::min(dt_stable, verlet_stability_limit(q.t_c, q.e));
   if (c.dt >= dt_stable)
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt below the stability limit " + std::to_string(dt_stable) +

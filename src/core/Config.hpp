@@ -27,6 +27,14 @@ struct Species {
   double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
 };
 
+// Contact parameters of one unordered pair of species. Without a [[pair]] table for it, an
+// unlike pair mixes its species' values: arithmetic means of t_c, e, kt_ratio and
+// gammat_ratio, the smaller mu_s and mu_d (the slipperier surface decides). A like pair is
+// its species' own values.
+struct PairParameters {
+  double t_c = 0, e = 1, mu_s = 0, mu_d = 0, kt_ratio = 2.0 / 7.0, gammat_ratio = 2.0 / 7.0;
+};
+
 inline constexpr double kGravitationalConstant = 6.674e-11;
 
 struct Config {
@@ -90,6 +98,10 @@ struct Config {
   double min_radius() const;
 
   std::uint64_t seed = 1;
+
+  // Contact parameters per species pair, [a * n + b] (symmetric); filled by read_config.
+  std::vector<PairParameters> pairs;
+  const PairParameters& pair(int a, int b) const { return pairs[a * species.size() + b]; }
 
   ChannelConfig channel;  // modules channel, drag, inlet, clog
 

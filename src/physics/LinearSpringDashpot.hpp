@@ -71,14 +71,11 @@ class LinearSpringDashpot {
     table_.resize(n_ * n_);
     for (int a = 0; a < n_; ++a)
       for (int b = 0; b < n_; ++b) {
-        const Species& s = cfg.species[a];
-        const Species& t = cfg.species[b];
-        // Unlike pairs: mean contact time and restitution (a [[pair]] override is future work).
-        const double tc = 0.5 * (s.t_c + t.t_c), e = 0.5 * (s.e + t.e);
-        const double eta = -std::log(e) / tc, omega = std::numbers::pi / tc;
-        table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, 0.5 * (s.kt_ratio + t.kt_ratio),
-                              0.5 * (s.gammat_ratio + t.gammat_ratio), std::min(s.mu_s, t.mu_s),
-                              std::min(s.mu_d, t.mu_d)};
+        // Each pair its own t_c and e through its reduced mass (spec section 1); unlike pairs
+        // mix their species' values unless a [[pair]] table sets them (Config::pair).
+        const PairParameters& q = cfg.pair(a, b);
+        const double eta = -std::log(q.e) / q.t_c, omega = std::numbers::pi / q.t_c;
+        table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, q.kt_ratio, q.gammat_ratio, q.mu_s, q.mu_d};
       }
   }
 
