@@ -60,15 +60,18 @@ plt.colorbar(label="rms |v - 1.5 Omega0 y e_x| (m/s)")
 plt.xlabel("x (m)"); plt.ylabel("y (m)")
 plt.tight_layout(); plt.savefig(os.path.join(out, "fluctuation_map.png"), dpi=110); plt.close()
 
-ix = int(np.argmin(abs(x - 990.0)))
-cut = sigma[:, ix]
+# The cut at exactly x = 990 m, interpolated between the two grid columns around it (the
+# nearest column can be half a spacing away: 945 m on a 90 m grid).
+ix = int(np.searchsorted(x, 990.0)) - 1
+wx = (990.0 - x[ix]) / (x[ix + 1] - x[ix])
+cut = (1 - wx) * sigma[:, ix] + wx * sigma[:, ix + 1]
 Ly = y[-1] - y[0] + (y[1] - y[0])
 keep = abs(y) <= Ly / 2 - 2 * a.width
 contrast = float(cut[keep].max() / max(cut[keep].min(), 1e-300))
 plt.figure(figsize=(6, 4))
 plt.plot(y, cut, "-")
 plt.axvspan(y[0], -Ly / 2 + 2 * a.width, color="0.9"); plt.axvspan(Ly / 2 - 2 * a.width, y[-1], color="0.9")
-plt.xlabel("y (m)"); plt.ylabel("Sigma (kg/m^2)"); plt.title(f"x = {x[ix]:.0f} m: Sigma_max/Sigma_min = {contrast:.2f}")
+plt.xlabel("y (m)"); plt.ylabel("Sigma (kg/m^2)"); plt.title(f"x = 990 m: Sigma_max/Sigma_min = {contrast:.2f}")
 plt.tight_layout(); plt.savefig(os.path.join(out, "linecut.png"), dpi=110); plt.close()
 
 h = R0 * (a.moonlet_mass / (3 * MS)) ** (1 / 3)
