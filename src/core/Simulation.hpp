@@ -69,9 +69,6 @@ class Simulation {
   // largest squared displacement since the last rebuild relative to the imposed flow
   // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).
   double stream = 0, max_drift2 = 0;
-  // ... and the largest squared displacement of this step relative to the imposed flow
-  // (dt |v(t+dt/2) - u(x)|)^2: the tunnelling guard's measure.
-  double max_step2 = 0;
 
   double dt = 0, time = 0;
   long step_count = 0;

@@ -27,6 +27,7 @@ class Guards : public Module {
   bool energy_source_;
   double max_step_;      // fraction of the smallest radius
   double step_limit2_ = 0;  // (max_step_ * smallest radius)^2
+  double last_drift2_ = 0;  // the integrator's max_drift2 of the previous step
   double ke0_ = 0;
   const class ChannelWalls* channel_ = nullptr;
 };

@@ -27,13 +27,11 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   const double* IM = p.inv_mass.data();
   const Vec3* XB = p.x_build.data();
   const double stream = sim.stream;
-  const double rate = sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0;
   // The largest displacement since the last rebuild (see Simulation::stream), with two
-  // accumulators: halves the max-reduction dependency chain. And the largest velocity
-  // relative to the imposed flow, squared: the tunnelling guard's measure of this step.
-  double m0 = 0, m1 = 0, w0 = 0, w1 = 0;
+  // accumulators: halves the max-reduction dependency chain.
+  double m0 = 0, m1 = 0;
   const std::size_t n = p.nlocal;
-  auto advance = [&](std::size_t i, double& w) {
+  auto advance = [&](std::size_t i) {
     const double k = h * IM[i];
     double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1], vz = planar ? 0.0 : V[i][2] + k * F[i][2];
     if (rotating) {  // Coriolis, dv/dt = 2 omega (vy, -vx) over dt/2: a clockwise rotation by omega dt
@@ -48,19 +46,16 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
     X[i][0] = x;
     X[i][1] = y;
     X[i][2] = z;
-    const double ux = vx - rate * y;
-    w = std::max(w, ux * ux + vy * vy + vz * vz);
     const double dx = x - XB[i][0] - stream * XB[i][1], dy = y - XB[i][1], dz = z - XB[i][2];
     return dx * dx + dy * dy + dz * dz;
   };
   std::size_t i = 0;
   for (; i + 1 < n; i += 2) {
-    m0 = std::max(m0, advance(i, w0));
-    m1 = std::max(m1, advance(i + 1, w1));
+    m0 = std::max(m0, advance(i));
+    m1 = std::max(m1, advance(i + 1));
   }
-  if (i < n) m0 = std::max(m0, advance(i, w0));
+  if (i < n) m0 = std::max(m0, advance(i));
   sim.max_drift2 = std::max(m0, m1);
-  sim.max_step2 = dt * dt * std::max(w0, w1);
   if (p.rotation)
     for (std::size_t k = 0; k < n; ++k) p.omega[k] += (h * p.inv_inertia[k]) * p.torque[k];
 }
