@@ -1,3 +1,4 @@
+#!/usr/bin/python3
 """Picture of a ring run from its particle dumps: surface density (log scale) over the patch
 and the velocity deviation from the Keplerian shear near the moonlet.
    /usr/bin/python3 scripts/plot-ring.py RUN_DIR [OUT.png]
