@@ -26,6 +26,13 @@ void Gravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const
   for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * g_;
 }
 
+// The particles' wall-spring columns: domain planes first, then channel features, then the moonlet.
+int moonlet_wall_slot(const Config& cfg) {
+  int slot = static_cast<int>(domain_walls(cfg).size());
+  if (cfg.has_module("channel")) slot += ChannelGeometry(cfg.channel).features();
+  return slot;
+}
+
 std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation& sim) {
   std::vector<std::unique_ptr<Module>> m;
   auto integrator = std::make_unique<VelocityVerlet>(cfg.planar);
@@ -43,7 +50,7 @@ std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation&
     if (cfg.has_module("inlet")) m.push_back(std::make_unique<Inlet>(cfg, geo));
     if (cfg.has_module("clog")) m.push_back(std::make_unique<ClogMonitor>(cfg));
   }
-  if (cfg.has_module("moonlet")) m.push_back(std::make_unique<Moonlet>(cfg, sim.dt));
+  if (cfg.has_module("moonlet")) m.push_back(std::make_unique<Moonlet>(cfg, sim.dt, moonlet_wall_slot(cfg)));
   if (cfg.has_module("hill")) m.push_back(std::make_unique<HillFrame>(cfg));
   if (cfg.has_module("gravity")) m.push_back(std::make_unique<Gravity>(cfg.gravity));
   // Kinetic energy may legitimately grow where something feeds it: gravity, the frame's

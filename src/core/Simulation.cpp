@@ -24,6 +24,7 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   particles.rotation = cfg.friction();
   particles.walls = static_cast<int>(domain_walls(cfg).size());
   if (cfg.has_module("channel")) particles.walls += ChannelGeometry(cfg.channel).features();
+  if (cfg.has_module("moonlet")) particles.walls += 1;  // the moonlet's spring: the last slot
   if (cfg.decomposition == "metis") domain.use_cells(range);
 }
 

@@ -78,7 +78,8 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
       if (c.distance <= 0) continue;
       const Vec3 n(c.nx, c.ny, 0);
       Vec3 spring = fric ? p.wall_xi[i * p.walls + first_slot_ + c.feature] : Vec3::Zero(), torque;
-      const Vec3 f = law_.wall_force(p, i, n, p.radius[i] - c.distance, fric ? &spring : nullptr, torque);
+      const Vec3 f = law_.wall_force(p, i, n, p.radius[i] - c.distance, fric ? &spring : nullptr, torque,
+                                     false);  // the step already advanced the spring
       out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
     }
   }

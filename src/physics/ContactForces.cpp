@@ -170,7 +170,9 @@ void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& o
       Vec3 vrel = p.v[i] - p.v[j];
       if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);  // id[i] < id[j], as in force()
       Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
-      const Vec3 f = law_.force(law_.law(p.species[i], p.species[j]), m, R - r, n, vrel, fric ? &spring : nullptr, ft);
+      // The step already advanced the spring: report it as it stands (no second increment).
+      const Vec3 f = law_.force(law_.law(p.species[i], p.species[j]), m, R - r, n, vrel, fric ? &spring : nullptr, ft,
+                                false);
       out.push_back({p.id[i], p.id[j], p.x[i], d, f});
     }
 }

@@ -85,8 +85,10 @@ class LinearSpringDashpot {
   // Force on body i. n: unit normal pointing from the partner to i; delta: overlap;
   // vrel: velocity of i's contact point relative to the partner's; m: reduced mass.
   // Returns the total force; ft receives the tangential part (for the torque).
+  // advance = false evaluates the force of the spring as it stands, without this step's
+  // increment v_t dt: for reports (snapshots, stress) after the step already advanced it.
   [[gnu::always_inline]] Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi,
-                                     Vec3& ft) const {
+                                     Vec3& ft, bool advance = true) const {
     const double vn = vrel.dot(n);
     double fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
     if (clip_ && fn < 0) fn = 0;
@@ -105,7 +107,7 @@ class LinearSpringDashpot {
       const double slen2 = s.squaredNorm();
       if (slen2 > 0) s *= std::sqrt(len2 / slen2);
     }
-    s += vt * dt_;
+    if (advance) s += vt * dt_;
     const double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
     ft = -kt * s - gt * vt;
     const double cap = L.mu_s * std::max(fn, 0.0);
@@ -123,12 +125,13 @@ class LinearSpringDashpot {
   // Force on particle i of p from an immovable wall (infinite mass: m_ij = m_i, the particle's
   // own species). n: unit normal from the wall to the centre; delta: overlap; xi: the (particle,
   // wall) spring or nullptr without friction. torque receives the wall's torque on i.
-  Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque) const {
+  Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque,
+                  bool advance = true) const {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
     if (xi) vrel -= a * p.omega[i].cross(n);
     const int sp = p.species[i];
-    const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft);
+    const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft, advance);
     if (xi) torque = (-a * n).cross(ft);  // frictionless walls exert no torque: skip the work
     else torque.setZero();
     return f;

@@ -6,9 +6,9 @@
 
 namespace cassini {
 
-Moonlet::Moonlet(const Config& cfg, double dt)
+Moonlet::Moonlet(const Config& cfg, double dt, int slot)
     : law_(cfg, dt), gm_(kGravitationalConstant * cfg.moonlet_mass), radius_(cfg.moonlet_radius),
-      dims_(cfg.planar ? 2 : 3) {}
+      dims_(cfg.planar ? 2 : 3), slot_(slot) {}
 
 // Scalar components on purpose (no `r[2] = 0` on an Eigen vector): patching one lane goes
 // through the stack and stalls store-to-load forwarding in this once-per-particle loop.
@@ -42,10 +42,16 @@ void Moonlet::force(Simulation& sim) {
   for (std::size_t i = 0; i < n; ++i) {
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
     const double d2 = x * x + y * y + z * z, reach = R + A[i];
-    if (d2 >= reach * reach || d2 == 0) continue;
+    // With friction each particle keeps a tangential spring with the moonlet (its last wall
+    // slot), reset when it lets go, as with any wall; the ring scene is frictionless.
+    Vec3* xi = fric ? &p.wall_xi[i * p.walls + slot_] : nullptr;
+    if (d2 >= reach * reach || d2 == 0) {
+      if (xi) xi->setZero();
+      continue;
+    }
     const double d = std::sqrt(d2), delta = reach - d;
-    Vec3 xi = Vec3::Zero(), torque;  // the moonlet is frictionless in the ring scene; no history kept
-    F[i] += law_.wall_force(p, i, Vec3(x, y, z) / d, delta, fric ? &xi : nullptr, torque);
+    Vec3 torque;
+    F[i] += law_.wall_force(p, i, Vec3(x, y, z) / d, delta, xi, torque);
     if (fric) p.torque[i] += torque;
     if (delta / A[i] > worst) { worst = delta / A[i]; worst_id_ = p.id[i]; }
     ++contacts;
@@ -61,8 +67,10 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
     if (dims_ == 2) r[2] = 0;
     const double d = r.norm();
     if (d >= radius_ + p.radius[i] || d == 0) continue;
-    Vec3 xi = Vec3::Zero(), torque;
-    const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, law_.friction() ? &xi : nullptr, torque);
+    const bool fric = law_.friction();
+    Vec3 xi = fric ? p.wall_xi[i * p.walls + slot_] : Vec3::Zero(), torque;
+    const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, fric ? &xi : nullptr, torque,
+                                   false);  // the step already advanced the spring
     out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
   }
 }

@@ -16,7 +16,8 @@ namespace cassini {
 
 class Moonlet : public Module {
  public:
-  Moonlet(const Config& cfg, double dt);
+  // slot: the moonlet's column in the particles' wall springs (used with friction).
+  Moonlet(const Config& cfg, double dt, int slot);
   std::string name() const override { return "moonlet"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
@@ -39,6 +40,7 @@ class Moonlet : public Module {
   LinearSpringDashpot law_;
   double gm_, radius_;
   int dims_;
+  int slot_;
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;
   long contacts_ = 0;

@@ -52,7 +52,8 @@ void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out)
       const double s = (p.x[i] - pl.point).dot(pl.normal);
       if (s >= p.radius[i]) continue;
       Vec3 spring = law_.friction() ? p.wall_xi[i * p.walls + w] : Vec3::Zero(), torque;
-      const Vec3 f = law_.wall_force(p, i, pl.normal, p.radius[i] - s, law_.friction() ? &spring : nullptr, torque);
+      const Vec3 f = law_.wall_force(p, i, pl.normal, p.radius[i] - s, law_.friction() ? &spring : nullptr, torque,
+                                     false);  // the step already advanced the spring
       out.push_back({p.id[i], p.x[i] - s * pl.normal, s * pl.normal, f});
     }
 }
