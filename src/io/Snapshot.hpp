@@ -8,6 +8,7 @@
 // Layout (h5py: f["particles/grains/position/value"][0]):
 //   h5md/                          version [1,1], author, creator
 //   particles/grains/{position, velocity, omega*, id, species, radius, mass}/{step,time,value}
+//   particles/trajectory           soft link to particles/grains (MDAnalysis looks for that name)
 //   particles/grains/{force, torque*, body_force, wall_xi*}/{step,time,value}   forces of the step;
 //                                  body_force: the non-contact part (gravity, drag, frame forces)
 //   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
