@@ -232,26 +232,34 @@ void write_attr(hid_t obj, const std::string& name, const std::string& value) {
 // ParaView reads the fields through this sidecar: a co-rectilinear mesh of the grid points.
 void write_xdmf(const std::string& out, const Grid& g, std::size_t frames) {
   const std::string h5 = fs::path(out).filename().string();
-  std::string dims, origin, spacing;
-  for (int d = g.dims - 1; d >= 0; --d) {  // slowest axis first, as stored
-    dims += std::to_string(g.n[d]) + (d ? " " : "");
+  // Always a 3D mesh, z y x (slowest first, as stored): ParaView puts a 2DCoRectMesh in the
+  // y-z plane, where the default view of an x-y field is empty. A 2D grid is one layer thick
+  // at z = the box's mid-plane.
+  std::string dims, mesh_dims, origin, spacing;
+  for (int d = 2; d >= 0; --d) {
     std::ostringstream o, h;
     o.precision(17);
     h.precision(17);
-    o << g.centre(d, 0);
-    h << g.h(d);
+    if (d < g.dims) {
+      o << g.centre(d, 0);
+      h << g.h(d);
+      dims += std::to_string(g.n[d]) + (d ? " " : "");
+    } else {
+      o << 0.5 * (g.lo[d] + g.hi[d]);
+      h << 1.0;
+    }
+    mesh_dims += std::to_string(d < g.dims ? g.n[d] : 1) + (d ? " " : "");
     origin += o.str() + (d ? " " : "");
     spacing += h.str() + (d ? " " : "");
   }
-  const std::string mesh = g.dims == 3 ? "3DCoRectMesh" : "2DCoRectMesh";
-  const std::string geo = g.dims == 3 ? "ORIGIN_DXDYDZ" : "ORIGIN_DXDY";
+  const std::string mesh = "3DCoRectMesh", geo = "ORIGIN_DXDYDZ";
   std::ofstream x(fs::path(out).replace_extension(".xdmf"));
   x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"cg\" GridType=\"Uniform\">\n"
     << "   <Information Name=\"frames\" Value=\"" << frames << "\"/>\n"
-    << "   <Topology TopologyType=\"" << mesh << "\" Dimensions=\"" << dims << "\"/>\n"
+    << "   <Topology TopologyType=\"" << mesh << "\" Dimensions=\"" << mesh_dims << "\"/>\n"
     << "   <Geometry GeometryType=\"" << geo << "\">\n"
-    << "    <DataItem Dimensions=\"" << g.dims << "\" Format=\"XML\">" << origin << "</DataItem>\n"
-    << "    <DataItem Dimensions=\"" << g.dims << "\" Format=\"XML\">" << spacing << "</DataItem>\n   </Geometry>\n";
+    << "    <DataItem Dimensions=\"3\" Format=\"XML\">" << origin << "</DataItem>\n"
+    << "    <DataItem Dimensions=\"3\" Format=\"XML\">" << spacing << "</DataItem>\n   </Geometry>\n";
   const std::pair<const char*, int> fields[] = {{"density", 1}, {"velocity", 3}, {"momentum", 3}, {"velocity_fluctuation", 1},
                                                 {"background_fluctuation", 1}, {"stress", 9}, {"wall_traction", 3},
                                                 {"body_force_density", 3}};
