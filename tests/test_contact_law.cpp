@@ -213,6 +213,66 @@ boundary = ["periodic", "periodic", "wall"]
   EXPECT_NEAR(v_moon[2], v_plane[2], 0.03 * std::abs(v_plane[2]));
 }
 
+TEST(ContactLaw, TangentialSpringHoldsBelowStaticFrictionAndSlidesAbove) {
+  // A sphere squeezed between floor and ceiling (overlap delta at each) under a tangential load
+  // F at its centre. Torque balance makes the two friction forces equal, so each carries F/2.
+  // Below 2 mu_s f_n it must hold still, each tangential spring stretched to F / (2 k_t)
+  // (k_t = kt_ratio k, k = m (omega^2 + eta^2), the wall's reduced mass being m), with
+  // f_n = k delta. Above it, both contacts slide and the sphere accelerates at
+  // (F - 2 mu_d f_n) / m without spinning.
+  const double a = 1e-3, delta = 0.01 * a, tc = 1e-4, e = 0.5, mu_s = 0.5, mu_d = 0.4;
+  const double m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  const double eta = -std::log(e) / tc, w = std::numbers::pi / tc, k = m * (w * w + eta * eta);
+  const double kt = 2.0 / 7.0 * k, fn = k * delta;
+  for (double load : {0.6, 1.5}) {  // F / (2 mu_s f_n)
+    const double F = load * 2 * mu_s * fn;
+    const std::string text = R"(
+modules = ["contact", "walls", "gravity"]
+[domain]
+lo = [-0.05, -0.05, 0.0]
+boundary = ["periodic", "periodic", "wall"]
+[[species]]
+density = 2500.0
+radius = 0.001
+t_c = 1.0e-4
+e = 0.5
+mu_s = 0.5
+mu_d = 0.4
+[particles]
+init = "none"
+[time]
+end = 1.0
+)";
+    auto sim = make_sim(text, {"domain.hi=[0.05, 0.05, " + std::to_string(2 * a - 2 * delta) + "]",
+                               "gravity.g=[" + std::to_string(F / m) + ", 0.0, 0.0]"});
+    sim->particles.add(0, 0, a, m, Vec3(0, 0, a - delta), Vec3::Zero());
+    sim->setup();
+    const int steps = int(std::lround((load < 1 ? 400 : 100) * tc / sim->dt));  // sliding: ~70 m/s at the end
+    double v_mid = 0, t_mid = 0;
+    for (int s = 0; s < steps; ++s) {
+      sim->step();
+      if (s == steps / 2) { v_mid = sim->particles.v[0][0]; t_mid = sim->time; }
+    }
+    const auto& p = sim->particles;
+    if (load < 1) {
+      EXPECT_LT(std::abs(p.v[0][0]), 1e-9) << "held";
+      for (int wall = 0; wall < p.walls; ++wall) {
+        const double xi = p.wall_xi[wall].norm();
+        if (xi == 0) continue;  // the four periodic sides hold no wall
+        EXPECT_NEAR(xi, F / (2 * kt), 1e-6 * F / (2 * kt)) << "spring of wall " << wall;
+      }
+      std::vector<WallForce> walls;
+      for (const auto& mod : sim->modules) mod->wall_forces(*sim, walls);
+      ASSERT_EQ(walls.size(), 2u);
+      for (const auto& wf : walls) EXPECT_NEAR(wf.force[0], -F / 2, 1e-6 * F) << "tangential force at z = " << wf.point[2];
+    } else {
+      const double accel = (p.v[0][0] - v_mid) / (sim->time - t_mid);
+      EXPECT_NEAR(accel, (F - 2 * mu_d * fn) / m, 1e-6 * F / m) << "sliding";
+      EXPECT_LT(p.omega[0].norm() * a, 1e-9 * std::abs(p.v[0][0])) << "no spin";
+    }
+  }
+}
+
 TEST(ContactLaw, ErrorShrinksWithTimeStep) {
   // First-order convergence (see above): quadrupling N_c cuts the restitution error by ~4.
   const double e = 0.5;
