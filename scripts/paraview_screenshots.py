@@ -2,10 +2,11 @@
 import os
 import sys
 
-from paraview.simple import (ColorBy, Glyph, GetActiveViewOrCreate, GetColorTransferFunction, OpenDataFile,
-                             ResetCamera, SaveScreenshot, Show, Hide)
+from paraview.simple import ColorBy, Glyph, GetActiveViewOrCreate, Hide, OpenDataFile, ResetCamera, SaveScreenshot, Show
 
-particles_file, fields_file, out = sys.argv[1:4]
+# Absolute paths: ParaView 5.11's XDMF 3 reader aborts on a relative .xdmf path whose HDF5 file
+# is named relative to it (as cassini writes them).
+particles_file, fields_file, out = (os.path.abspath(a) for a in sys.argv[1:4])
 
 
 def describe(source, label):
@@ -27,6 +28,10 @@ def frame(view, bounds):
     view.CameraViewUp = [0, 1, 0]
     view.CameraParallelProjection = 1
     ResetCamera(view)
+    # Fill the picture: half its height in world units, whichever of width and height binds.
+    w, h = bounds[1] - bounds[0], bounds[3] - bounds[2]
+    aspect = view.ViewSize[0] / view.ViewSize[1]
+    view.CameraParallelScale = 0.55 * max(h, w / aspect)
 
 
 view = GetActiveViewOrCreate("RenderView")
@@ -35,9 +40,13 @@ view.OrientationAxesVisibility = 1
 
 p = OpenDataFile(particles_file)
 b = describe(p, "particles")
+# Point Gaussian draws every point (the snapshot's Polyvertex topology renders as nothing in the
+# surface representations) as a disc of the particle's size, or of a pixel or two when the box
+# is much larger than a particle (a ring patch).
 d = Show(p, view)
-d.SetRepresentationType("Points")
-d.PointSize = 2
+d.SetRepresentationType("Point Gaussian")
+d.ShaderPreset = "Plain circle"
+d.GaussianRadius = max(p.PointData["radius"].GetRange()[1], 1.2e-3 * max(b[1] - b[0], b[3] - b[2]))
 ColorBy(d, ("POINTS", "velocity", "Magnitude"))
 d.SetScalarBarVisibility(view, True)
 frame(view, b)
