@@ -138,6 +138,76 @@ TEST(VolumeFraction, LoneBeadSeesTheKernelPeakOfWidthW) {
   EXPECT_NEAR(vf.at(centre[0], centre[1]) / (V / (2 * std::numbers::pi * s * s * H * (1 - std::exp(-4.5)))), 1.0, 5e-3);
 }
 
+// drag.self_volume = false: a bead's phi is the field without its own deposit. own() must be
+// exactly what the bead adds to at() (same kernel, normalisation, interpolation): alone, it
+// leaves phi = 0 (to the 2^-50 fixed point); beside a neighbour, exactly the neighbour's field.
+TEST(VolumeFraction, OwnDepositIsWhatTheBeadAddsToTheField) {
+  const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
+  ChannelGeometry geo(cfg.channel);
+  const double w = cfg.channel.phi_width, H = cfg.hi[2] - cfg.lo[2];
+  const double a = cfg.species[0].radius_min, V = 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  const Vec3 me(-4.03e-4, 0.11e-4, 5e-5), other(-3.41e-4, 0.37e-4, 5e-5);
+  VolumeFraction both(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, 0.5 * w),
+      alone(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, 0.5 * w),
+      neighbour(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, 0.5 * w);
+  ParticleStore p2, p1, pn;
+  p2.add(0, 0, a, 1.0, me, Vec3::Zero());
+  p2.add(1, 0, a, 1.0, other, Vec3::Zero());
+  p1.add(0, 0, a, 1.0, me, Vec3::Zero());
+  pn.add(1, 0, a, 1.0, other, Vec3::Zero());
+  p2.nlocal = 2;
+  p1.nlocal = pn.nlocal = 1;
+  both.update(p2, MPI_COMM_WORLD);
+  alone.update(p1, MPI_COMM_WORLD);
+  neighbour.update(pn, MPI_COMM_WORLD);
+  const double peak = alone.at(me[0], me[1]);
+  EXPECT_NEAR(alone.at(me[0], me[1]) - alone.own(me[0], me[1], V), 0.0, 1e-12 * peak);
+  EXPECT_GT(neighbour.at(me[0], me[1]), 0.05 * peak);  // the neighbour is within the kernel
+  EXPECT_NEAR(both.at(me[0], me[1]) - both.own(me[0], me[1], V), neighbour.at(me[0], me[1]), 1e-12 * peak);
+}
+
+TEST(StokesDrag, WithoutItsOwnVolumeALoneBeadFeelsPlainStokesDrag) {
+  // Beetstra's f(phi) -> 1 as phi -> 0: a lone bead that does not count itself relaxes to the
+  // fluid with the Stokes time, as with drag.voidage = "stokes"; counting itself it sees
+  // phi ~ 0.03 and f ~ 1.4: 40 % more drag than an isolated sphere has.
+  double rate[2], phi[2], f_self = 0;
+  for (bool self : {false, true}) {
+    auto sim = make_sim(channel_case(R"(["channel", "drag"])"), {std::string("drag.self_volume=") + (self ? "true" : "false")});
+    const double a = 3.3333e-5, m = 1050 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+    sim->particles.add(0, 0, a, m, Vec3(-5e-4, 0, 5e-5), Vec3::Zero());
+    sim->setup();
+    const auto* drag = sim->find<StokesDrag>();
+    const double tau = m / (6 * std::numbers::pi * 1.8e-3 * a);
+    sim->step();
+    const double u = drag->flow().velocity(sim->particles.x[0])[0];
+    // The relaxation rate seen in one step, in units of 1/tau (biased by O(beta dt), alike for both).
+    rate[self] = -std::log(1 - sim->particles.v[0][0] / u) / sim->dt * tau;
+    phi[self] = drag->phi_of(0);
+    if (self) f_self = drag->voidage(phi[1]);
+  }
+  EXPECT_EQ(phi[0], 0.0);
+  EXPECT_NEAR(rate[0], 1.0, 0.01);  // Stokes: beta = 1 / tau
+  EXPECT_GT(phi[1], 0.01);
+  EXPECT_GT(f_self, 1.2);
+  EXPECT_NEAR(rate[1] / rate[0], f_self, 0.01 * f_self);
+}
+
+TEST(StokesDrag, FaxenConfinementHasTheReflectionLimit) {
+  // Far from both walls (a << h) the first reflection off two walls raises the drag by
+  // 1.004 a / (h / 2) (Faxen; single wall: 9/16 a/z); with drag.confinement = "none" it is 1.
+  const Config cfg = config_from(channel_case(R"(["channel", "drag"])"), {"drag.confinement=\"faxen\""});
+  ChannelGeometry geo(cfg.channel);
+  StokesDrag faxen(cfg, geo);
+  const double h = cfg.hi[2] - cfg.lo[2];
+  for (double lambda : {1e-3, 1e-2}) {
+    const double K = faxen.confinement(0.5 * lambda * h);
+    EXPECT_NEAR((K - 1) / lambda, 1.004, 1.004 * 1.5 * lambda);  // next term: 1.004^2 lambda
+  }
+  EXPECT_GT(faxen.confinement(0.25 * h), faxen.confinement(0.1 * h));  // monotone towards the walls
+  const Config none = config_from(channel_case(R"(["channel", "drag"])"));
+  EXPECT_EQ(StokesDrag(none, geo).confinement(0.25 * h), 1.0);
+}
+
 TEST(StokesDrag, VoidageFunctionsHaveTheirLimits) {
   const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
   ChannelGeometry geo(cfg.channel);

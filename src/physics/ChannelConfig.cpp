@@ -93,6 +93,10 @@ void read_channel_config(CaseFile& f, Config& c) {
   if (ch.voidage != "beetstra" && ch.voidage != "thesis" && ch.voidage != "stokes")
     f.fail("drag.voidage", "\"beetstra\" (default, f -> 1 when dilute), \"thesis\" (2 k phi/(1-phi)^2) or \"stokes\" (f = 1)");
   ch.phi_width = positive(f, "drag.width", 100e-6);
+  ch.self_volume = f.boolean("drag.self_volume", true);
+  ch.confinement = f.string("drag.confinement", "none");
+  if (ch.confinement != "none" && ch.confinement != "faxen")
+    f.fail("drag.confinement", "\"none\" (default) or \"faxen\" (Faxen's factor for a sphere midway between two walls)");
   ch.phi_refresh = positive(f, "drag.refresh", 1e-3);
 
   // [inlet]

@@ -31,6 +31,8 @@ struct ChannelConfig {
 
   // [drag]
   std::string voidage = "beetstra";  // beetstra | thesis | stokes
+  bool self_volume = true;           // phi counts the bead's own volume
+  std::string confinement = "none";  // none | faxen: drag factor of floor and ceiling
   double phi_width = 100e-6;         // Gaussian coarse-graining width for phi
   double phi_refresh = 1e-3;         // simulated time between phi updates
 

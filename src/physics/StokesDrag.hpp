@@ -1,7 +1,12 @@
 #pragma once
 // Drag of the carrier fluid on each particle (spec section 3):
-//   F = f(phi) 6 pi eta a (u(x) - v),
+//   F = f(phi) K 6 pi eta a (u(x) - v),
 // u from the FlowField, phi from the VolumeFraction, refreshed every drag.refresh seconds.
+// phi counts the bead's own volume (drag.self_volume = true, the default and the runs in
+// docs/clogging.md) or not (false: an isolated bead then sees phi = 0 and f = 1, the dilute
+// limit Beetstra's correlation is built on). K is the confinement by floor and ceiling
+// (drag.confinement = "faxen": Faxen's midplane factor, see confinement(); "none": 1).
+// F is the whole fluid force on the bead: no separate pressure-gradient force is added.
 // Voidage f: "beetstra" (default; Beetstra et al. 2007 at Re -> 0, f -> 1 when dilute),
 // "thesis" (2 k phi / (1 - phi)^2, k = 5.34, which vanishes for an isolated particle), or
 // "stokes" (f = 1).
@@ -32,6 +37,7 @@ class StokesDrag : public Module {
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
   double voidage(double phi) const;
+  double confinement(double a) const;  // drag factor of the floor and ceiling (drag.confinement)
   const FlowField& flow() const { return *flow_; }
   const VolumeFraction& fraction() const { return phi_field_; }
   double phi_of(std::size_t i) const { return phi_[i]; }
@@ -42,6 +48,8 @@ class StokesDrag : public Module {
   const Config& cfg_;
   std::string voidage_;
   double viscosity_;
+  bool self_volume_, faxen_;
+  double height_;
   std::unique_ptr<FlowField> flow_;
   VolumeFraction phi_field_;
   long refresh_every_ = 1;

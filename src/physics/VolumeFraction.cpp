@@ -99,6 +99,29 @@ double VolumeFraction::at(double x, double y) const {
   return phi;
 }
 
+double VolumeFraction::own(double x, double y, double volume) const {
+  const double s = (x - x0_) / h_, t = (y - y0_) / h_;
+  const int i = std::clamp(static_cast<int>(std::floor(s)), 0, nx_ - 2);
+  const int j = std::clamp(static_cast<int>(std::floor(t)), 0, ny_ - 2);
+  const double fx = std::clamp(s - i, 0.0, 1.0), fy = std::clamp(t - j, 0.0, 1.0);
+  const int corner[4] = {i * ny_ + j, i * ny_ + j + 1, (i + 1) * ny_ + j, (i + 1) * ny_ + j + 1};
+  const double bw[4] = {(1 - fx) * (1 - fy), (1 - fx) * fy, fx * (1 - fy), fx * fy};
+  double deposit[4] = {0, 0, 0, 0}, all = 0;
+  const double per_area = volume / (h_ * h_ * height_);
+  for_nodes(x, y, [&](int n, double w) {
+    all += w * per_area;  // for the no-fluid-corner fallback of at(): sum w * (w * per_area)
+    for (int k = 0; k < 4; ++k)
+      if (n == corner[k]) deposit[k] = w * per_area;
+  });
+  double num = 0, den = 0;
+  for (int k = 0; k < 4; ++k)
+    if (fluid_[corner[k]]) { num += bw[k] * deposit[k]; den += bw[k]; }
+  if (den > 1e-3) return num / den;
+  double mine = 0;
+  for_nodes(x, y, [&](int, double w) { mine += w * w * per_area; });
+  return mine;
+}
+
 double VolumeFraction::integral() const {
   double s = 0;
   for (double v : phi_) s += v;

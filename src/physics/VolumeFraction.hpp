@@ -24,6 +24,9 @@ class VolumeFraction {
   void update(const ParticleStore& p, MPI_Comm comm);
   // phi seen by a particle at (x, y): the node field interpolated bilinearly over fluid nodes.
   double at(double x, double y) const;
+  // The part of at(x, y) that a particle of this volume centred at (x, y) deposits itself: the
+  // same kernel, normalisation and interpolation, so at() - own() is phi without the bead.
+  double own(double x, double y, double volume) const;
   double node_spacing() const { return h_; }
   // Sum of phi * node area * height over the nodes: the particles' total volume.
   double integral() const;
