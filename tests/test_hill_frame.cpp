@@ -180,14 +180,23 @@ TEST(HillFrame, ForcesCancelAtTheLagrangePoints) {
   }
 }
 
-TEST(HillFrame, ExactAndLinearFormsAgreeNearTheOrigin) {
-  HillFrame linear(config_from(kRing)), exact(config_from(kRing, {"hill.form=\"exact\""}));
-  for (double y : {-900.0, -100.0, 10.0, 500.0}) {
-    const Vec3 x(250.0, y, 0);
-    const Vec3 a = linear.acceleration(x), b = exact.acceleration(x);
-    // Leading differences: O(x/r0) relative in the radial term, plus -W^2 x (x/r0)... the
-    // azimuthal term of the exact form is W^2 x - G M x / r^3 = O(W^2 x y / r0).
-    EXPECT_LT((a - b).norm(), 1e-4 * kOmega * kOmega * std::abs(y) * 3 + 1e-9) << "y = " << y;
+TEST(HillFrame, ExactMinusLinearIsTheSecondOrderTide) {
+  // Expanding G M_S / r^3 (r from Saturn, G M_S = W^2 r0^3) to second order in (x, y, z) / r0:
+  //   exact - linear = W^2 / r0 (3 x y,  1.5 x^2 - 3 y^2 + 1.5 z^2,  3 y z)  + O(W^2 d^3 / r0^2),
+  // an independent check of both forms. The remainder is ~d / r0 ~ 1e-5 of that term; round-off
+  // in the exact form is ~1e-16 of W^2 r0 = 2.8 m/s^2, far below the ~1e-10 m/s^2 terms here.
+  HillFrame linear(config_from(kRing, {"domain.planar=false", "domain.lo=[-1000.0, -1000.0, -100.0]",
+                                       "domain.hi=[1000.0, 1000.0, 100.0]"})),
+      exact(config_from(kRing, {"hill.form=\"exact\"", "domain.planar=false", "domain.lo=[-1000.0, -1000.0, -100.0]",
+                                "domain.hi=[1000.0, 1000.0, 100.0]"}));
+  const double r0 = 1.17e8, W2 = kOmega * kOmega;
+  for (const Vec3& x : {Vec3(250.0, -900.0, 0.0), Vec3(-700.0, 100.0, 30.0), Vec3(600.0, 500.0, -80.0), Vec3(900.0, 10.0, 5.0)}) {
+    const Vec3 d = exact.acceleration(x) - linear.acceleration(x);
+    const Vec3 second = W2 / r0 *
+                        Vec3(3 * x[0] * x[1], 1.5 * x[0] * x[0] - 3 * x[1] * x[1] + 1.5 * x[2] * x[2], 3 * x[1] * x[2]);
+    const double scale = W2 * x.squaredNorm() / r0;
+    EXPECT_LT((d - second).norm(), 1e-4 * scale + 1e-14) << "at " << x.transpose();
+    EXPECT_GT(second.norm(), 0.3 * scale);  // the term is really there
   }
 }
 
