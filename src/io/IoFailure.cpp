@@ -50,8 +50,8 @@ std::string os_write_reason(const std::string& file) {
   if (statvfs(dir.empty() ? "." : dir.c_str(), &fs) == 0 && double(fs.f_bavail) * fs.f_frsize < 65536.0)
     return std::strerror(ENOSPC);
   const std::string probe = (dir.empty() ? std::string(".") : dir) + "/.cassini-write-probe";
-  const int fd = ::open(probe.c_str(), O_CREAT | O_WRONLY | O_TRUNC, 0600);
-  if (fd < 0) return std::strerror(errno);
+  const int fd = ::open(probe.c_str(), O_CREAT | O_EXCL | O_WRONLY, 0600);  // never an existing file
+  if (fd < 0) return errno == EEXIST ? "" : std::strerror(errno);
   static const char block[65536] = {};
   const ssize_t n = ::write(fd, block, sizeof block);
   const int err = n == ssize_t(sizeof block) ? 0 : (n < 0 ? errno : ENOSPC);
