@@ -156,6 +156,87 @@ TEST(HillFrame, FreeVerticalOscillationKeepsItsFrequencyAndAmplitude) {
     }
 }
 
+// The energy guard stays on in driven scenes by counting what the frame, the moonlet and the
+// shear put in. Its pieces against independent expectations, then the guard itself.
+// kRing without its [hill] table: for scenes without the frame.
+std::string without_frame() {
+  std::string t = kRing;
+  const std::string hill = "[hill]\nform = \"linear\"\n";
+  t.erase(t.find(hill), hill.size());
+  return t;
+}
+
+double total_potential(const Simulation& sim) {
+  double u = 0;
+  for (const auto& m : sim.modules) u += m->potential_energy(sim);
+  return u;
+}
+
+TEST(EnergyBookkeeping, FramePotentialsAndShearWorkBalanceTheKineticEnergy) {
+  // A free epicycle (3D, vertical tide at 2 Omega0) conserves KE + U_hill (the Jacobi energy).
+  {
+    auto sim = make_sim(kRing, {"domain.planar=false", "domain.lo=[-1000.0, -1000.0, -100.0]",
+                                "domain.hi=[1000.0, 1000.0, 100.0]", "hill.vertical_frequency=2.0"});
+    sim->particles.add(0, 0, 2.0, kMass, Vec3(0, -250.0, 7.0), Vec3(1.5 * kOmega * -250.0 + 0.002, 0.003, 0.001));
+    sim->setup();
+    const double e0 = sim->kinetic_energy() + total_potential(*sim);
+    double worst = 0;
+    for (int s = 0; s < 50000; ++s) {
+      sim->step();
+      worst = std::max(worst, std::abs(sim->kinetic_energy() + total_potential(*sim) - e0));
+    }
+    EXPECT_LT(worst, 1e-6 * std::abs(e0)) << "Jacobi energy";
+  }
+  // Falling from rest onto the moonlet (no frame): KE + U_moonlet is conserved until contact.
+  {
+    auto sim = make_sim(without_frame(), {"modules=[\"contact\", \"moonlet\"]", "moonlet.mass=1.27e10",
+                                          "moonlet.radius=150.0", "domain.boundary=[\"periodic\", \"periodic\", \"periodic\"]"});
+    sim->particles.add(0, 0, 2.0, kMass, Vec3(400.0, 300.0, 0), Vec3::Zero());
+    sim->setup();
+    const double e0 = sim->kinetic_energy() + total_potential(*sim);
+    while (sim->particles.x[0].norm() > 200.0) sim->step();
+    EXPECT_GT(sim->kinetic_energy(), 1e-3 * std::abs(e0));  // it really fell
+    EXPECT_NEAR(sim->kinetic_energy() + total_potential(*sim), e0, 1e-6 * std::abs(e0)) << "moonlet potential";
+  }
+  // Crossing the sheared boundary: the velocity jump changes KE by exactly the shear's work.
+  {
+    auto sim = make_sim(without_frame(), {"modules=[\"contact\"]", "domain.shear_rate=0.0001"});
+    sim->particles.add(0, 0, 2.0, kMass, Vec3(0, 990.0, 0), Vec3(0.01, 0.3, 0));
+    sim->particles.add(1, 0, 2.0, kMass, Vec3(100, -990.0, 0), Vec3(-0.02, -0.4, 0));
+    sim->setup();
+    const double ke0 = sim->kinetic_energy();
+    for (int s = 0; s < 100; ++s) sim->step();
+    sim->rebuild();  // migration applies the jumps
+    EXPECT_GE(sim->halo.shear_crossings, 2);
+    EXPECT_NEAR(sim->kinetic_energy() - ke0, sim->halo.shear_energy, 1e-12 * ke0);
+    EXPECT_GT(std::abs(sim->halo.shear_energy), 1e-3 * ke0);
+  }
+}
+
+TEST(EnergyBookkeeping, GuardStopsEnergyFromNowhereInADrivenRing) {
+  // A ring patch with frame, moonlet and shear, where the guard used to be off: a particle
+  // suddenly 1,000x faster (what an unstable contact looks like) must stop the run within 100
+  // steps, while the undisturbed run goes on.
+  for (bool kick : {false, true}) {
+    auto sim = make_sim(kRing, {"modules=[\"contact\", \"hill\", \"moonlet\"]", "moonlet.mass=1.27e10",
+                                "moonlet.radius=150.0", "particles.init=\"random\"", "particles.count=400",
+                                "particles.shear_flow=true", "particles.dispersion=0.01", "guards.max_step=1e6"});
+    sim->setup();
+    bool stopped = false;
+    try {
+      for (int s = 0; s < 400; ++s) {
+        if (kick && s == 150) sim->particles.v[0] *= 1000.0;
+        sim->step();
+      }
+    } catch (const GuardError& e) {
+      stopped = std::string(e.what()).find("energy conservation allows") != std::string::npos;
+      EXPECT_GE(sim->step_count, 150);
+      EXPECT_LE(sim->step_count, 252);
+    }
+    EXPECT_EQ(stopped, kick) << (kick ? "kicked" : "undisturbed");
+  }
+}
+
 TEST(HillFrame, ForcesCancelAtTheLagrangePoints) {
   // At rest at (0, +-r_H), r_H = (G M_M / (3 W^2))^(1/3), the tidal pull 3 W^2 r_H balances
   // the moonlet's gravity G M_M / r_H^2 (and the Coriolis force vanishes).

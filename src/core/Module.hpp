@@ -63,6 +63,12 @@ class Module {
   virtual void pair_forces(const Simulation&, std::vector<PairForce>&) const {}
   virtual void wall_forces(const Simulation&, std::vector<WallForce>&) const {}
   virtual void add_body_forces(const Simulation&, std::vector<Vec3>&) const {}
+
+  // Energy bookkeeping for the energy-growth guard (every scene keeps it on): a module with a
+  // conservative force gives the potential energy of this rank's owned particles; one that
+  // feeds energy otherwise (drag, an inlet) the work it has done on them since the run started.
+  virtual double potential_energy(const Simulation&) const { return 0.0; }
+  virtual double energy_input() const { return 0.0; }
 };
 
 }  // namespace cassini

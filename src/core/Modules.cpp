@@ -21,6 +21,13 @@ void Gravity::force(Simulation& sim) {
   for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * g_;
 }
 
+double Gravity::potential_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  double u = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) u -= p.mass[i] * g_.dot(p.x[i]);
+  return u;
+}
+
 void Gravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * g_;
@@ -53,10 +60,8 @@ std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation&
   if (cfg.has_module("moonlet")) m.push_back(std::make_unique<Moonlet>(cfg, sim.dt, moonlet_wall_slot(cfg)));
   if (cfg.has_module("hill")) m.push_back(std::make_unique<HillFrame>(cfg));
   if (cfg.has_module("gravity")) m.push_back(std::make_unique<Gravity>(cfg.gravity));
-  // Kinetic energy may legitimately grow where something feeds it: gravity, the frame's
-  // potential, a moonlet, shear at a Lees-Edwards boundary.
-  const bool source = cfg.has_module("drag") || cfg.has_module("inlet") || cfg.has_module("gravity") || cfg.has_module("hill") || cfg.has_module("moonlet") || cfg.sheared();
-  m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, source, cfg.max_step));
+  // Last: the guards see every module's potential energy and energy input.
+  m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, cfg.max_step));
   return m;
 }
 

@@ -66,8 +66,15 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
     bool gone = false;
     if (dom_.shear.enabled) {  // crossing the sheared boundary: shift x, jump vx
       const double off = dom_.shear.wrapped(L[0]), dv = dom_.shear.rate * L[1];
-      if (x[1] >= dom_.hi[1]) { x[1] -= L[1]; x[0] -= off; p.v[i][0] -= dv; shear_momentum -= p.mass[i] * dv; ++shear_crossings; }
-      else if (x[1] < dom_.lo[1]) { x[1] += L[1]; x[0] += off; p.v[i][0] += dv; shear_momentum += p.mass[i] * dv; ++shear_crossings; }
+      double jump = 0;
+      if (x[1] >= dom_.hi[1]) { x[1] -= L[1]; x[0] -= off; jump = -dv; }
+      else if (x[1] < dom_.lo[1]) { x[1] += L[1]; x[0] += off; jump = dv; }
+      if (jump != 0) {
+        shear_energy += p.mass[i] * (p.v[i][0] * jump + 0.5 * jump * jump);
+        p.v[i][0] += jump;
+        shear_momentum += p.mass[i] * jump;
+        ++shear_crossings;
+      }
     }
     for (int d = 0; d < dom_.dims; ++d) {
       if (dom_.periodic(d)) {

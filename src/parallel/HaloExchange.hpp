@@ -38,6 +38,7 @@ class HaloExchange {
   std::int64_t removed = 0;
   std::int64_t removed_upper = 0;  // of those, through an upper face (an outlet downstream)
   double shear_momentum = 0;  // sum of m dv_x applied by Lees-Edwards crossings on this rank
+  double shear_energy = 0;    // kinetic energy those velocity jumps added (the shear's work)
   std::int64_t shear_crossings = 0;  // particles wrapped through the sheared boundary here
 
  private:

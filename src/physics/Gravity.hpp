@@ -12,6 +12,7 @@ class Gravity : public Module {
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
+  double potential_energy(const Simulation& sim) const override;  // -m g . x
   const Vec3& g() const { return g_; }
 
  private:

@@ -11,8 +11,8 @@ namespace cassini {
 
 class Guards : public Module {
  public:
-  Guards(double max_overlap, double energy_growth, bool energy_source, double max_step)
-      : max_overlap_(max_overlap), energy_growth_(energy_growth), energy_source_(energy_source), max_step_(max_step) {}
+  Guards(double max_overlap, double energy_growth, double max_step)
+      : max_overlap_(max_overlap), energy_growth_(energy_growth), max_step_(max_step) {}
   std::string name() const override { return "guards"; }
   unsigned stages() const override { return kInitialIntegrate | kEndOfStep; }
   void setup(Simulation& sim) override;
@@ -24,11 +24,14 @@ class Guards : public Module {
  private:
   std::string diagnose(const Simulation& sim) const;  // why the fast scan failed
   double max_overlap_, energy_growth_;
-  bool energy_source_;
+  struct Energy {
+    double kinetic, potential, input;  // global: KE, sum of the modules' potentials, their work + the shear's
+  };
+  Energy energy(const Simulation& sim) const;  // collective
+  Energy start_{};
   double max_step_;      // fraction of the smallest radius
   double step_limit2_ = 0;  // (max_step_ * smallest radius)^2
   double last_drift2_ = 0;  // the integrator's max_drift2 of the previous step
-  double ke0_ = 0;
   const class ChannelWalls* channel_ = nullptr;
 };
 

@@ -25,6 +25,21 @@ Vec3 HillFrame::acceleration(const Vec3& x) const {
   return Vec3((omega_ * omega_ - g) * s[0], (omega_ * omega_ - g) * s[1], -(g + extra_z2_) * z);
 }
 
+double HillFrame::potential_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  double u = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const double x = p.x[i][0], y = p.x[i][1], z = planar_ ? 0.0 : p.x[i][2];
+    if (!exact_) {
+      u += p.mass[i] * (-1.5 * omega_ * omega_ * y * y + 0.5 * extra_z2_ * z * z);
+    } else {
+      const double s2 = x * x + (y + r0_) * (y + r0_);
+      u += p.mass[i] * (-gm_ / std::sqrt(s2 + z * z) - 0.5 * omega_ * omega_ * s2 + 0.5 * extra_z2_ * z * z);
+    }
+  }
+  return u;
+}
+
 void HillFrame::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * acceleration(p.x[i]);

@@ -33,6 +33,10 @@ class HillFrame : public Module {
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
+  // With the Coriolis force doing no work, kinetic energy plus this (the Jacobi energy) is
+  // conserved by a free particle: linear m (-3/2 W^2 y^2 + 1/2 W_z^2 z^2); exact, Saturn's
+  // potential and the centrifugal one.
+  double potential_energy(const Simulation& sim) const override;
 
   double omega() const { return omega_; }
   // Acceleration (per unit mass) of the frame's position-dependent forces at x.

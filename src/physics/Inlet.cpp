@@ -100,6 +100,7 @@ void Inlet::top_up(Simulation& sim) {
     if (sim.domain.owner(x) != sim.domain.rank) continue;
     const Vec3 v = drag ? drag->flow().velocity(x) : Vec3::Zero();
     sim.incoming.push_back({q.id, cfg_.init_species, q.a, sp.density * volume(q.a), x, v});
+    added_energy_ += 0.5 * sp.density * volume(q.a) * v.squaredNorm();
   }
   inserted_ += static_cast<long>(added.size());
   sim.rebuild();

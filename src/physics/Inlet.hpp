@@ -20,6 +20,7 @@ class Inlet : public Module {
   void setup(Simulation& sim) override;
   void end_of_step(Simulation& sim) override;
   long inserted() const { return inserted_; }
+  double energy_input() const override { return added_energy_; }  // kinetic energy brought in
   long failed_top_ups() const { return short_; }
   // The last top-up found the zone at its target: as long as nothing moves, none will insert.
   bool full() const { return full_; }
@@ -35,6 +36,7 @@ class Inlet : public Module {
   long every_ = 1;
   std::int64_t next_id_ = 0;
   long inserted_ = 0, short_ = 0;
+  double added_energy_ = 0;
   bool full_ = false;
 };
 

@@ -75,6 +75,17 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
   }
 }
 
+double Moonlet::potential_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  double u = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const double z = dims_ == 2 ? 0.0 : p.x[i][2];
+    const double r = std::sqrt(p.x[i][0] * p.x[i][0] + p.x[i][1] * p.x[i][1] + z * z);
+    u -= p.mass[i] * gm_ * (r >= radius_ ? 1 / r : (3 * radius_ * radius_ - r * r) / (2 * radius_ * radius_ * radius_));
+  }
+  return u;
+}
+
 void Moonlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * gravity(p.x[i]);

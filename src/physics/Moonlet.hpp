@@ -23,6 +23,7 @@ class Moonlet : public Module {
   void force(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
+  double potential_energy(const Simulation& sim) const override;  // -G M m / r (uniform sphere inside)
 
   Vec3 gravity(const Vec3& x) const;  // acceleration at x
   double max_overlap_fraction() const { return max_overlap_; }

@@ -75,7 +75,13 @@ void StokesDrag::post_rebuild(Simulation& sim) {
 void StokesDrag::force(Simulation& sim) {
   if (sim.step_count % refresh_every_ == 0) refresh(sim);
   ParticleStore& p = sim.particles;
-  for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * factor_[i] * (flow_->velocity(p.x[i]) - p.v[i]);
+  double power = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Vec3 f = p.mass[i] * factor_[i] * (flow_->velocity(p.x[i]) - p.v[i]);
+    p.f[i] += f;
+    power += f.dot(p.v[i]);  // the half-step velocity: the work of this force over the step
+  }
+  work_ += power * sim.dt;
 }
 
 }  // namespace cassini

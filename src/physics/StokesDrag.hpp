@@ -38,6 +38,7 @@ class StokesDrag : public Module {
 
   double voidage(double phi) const;
   double confinement(double a) const;  // drag factor of the floor and ceiling (drag.confinement)
+  double energy_input() const override { return work_; }
   const FlowField& flow() const { return *flow_; }
   const VolumeFraction& fraction() const { return phi_field_; }
   double phi_of(std::size_t i) const { return phi_[i]; }
@@ -55,6 +56,7 @@ class StokesDrag : public Module {
   long refresh_every_ = 1;
   std::vector<double> phi_;     // per owned particle, in the current slot order
   std::vector<double> factor_;  // (1 - exp(-beta dt)) / dt per owned particle
+  double work_ = 0;             // done on this rank's particles so far: sum F . v dt
 };
 
 }  // namespace cassini
