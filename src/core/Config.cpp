@@ -193,6 +193,11 @@ Config read_config(CaseFile& f) {
 
   // ---- contact
   c.clip_normal = f.boolean("contact.clip_normal", false);
+  const std::string scheme = f.string("contact.scheme", c.clip_normal ? "verlet" : "exact");
+  if (scheme != "exact" && scheme != "verlet") f.fail("contact.scheme", "\"exact\" or \"verlet\"");
+  c.exact_contacts = scheme == "exact";
+  if (c.exact_contacts && c.clip_normal)
+    f.fail("contact.scheme", "\"verlet\" with contact.clip_normal = true (the exact scheme integrates the unclipped law)");
   c.skin = f.number("contact.skin", 0.2 * c.max_radius());
   if (!(c.skin > 0)) f.fail("contact.skin", "a positive length");
   c.max_rebuild_every = f.integer("contact.rebuild_every", 0);
@@ -213,19 +218,27 @@ Config read_config(CaseFile& f) {
     const double nc = positive(f, "time.n_c", 50.0);
     c.dt = tc_min / nc;
   }
-  if (c.dt > tc_min / 10 && !c.force_dt)
+  // Below N_c = 10 Verlet's restitution is badly wrong; the exact scheme is exact at any N_c
+  // but dense packings need a few steps per contact time (see docs/accuracy-cost.md).
+  const double soft = c.exact_contacts ? 5 : 10;
+  if (c.dt > tc_min / soft && !c.force_dt)
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
-           "dt <= t_c/10 = " + std::to_string(tc_min / 10) +
-               " (the restitution is badly wrong beyond; set time.force = true to run anyway)");
-  // Beyond the integrator's stability limit on the contact spring (0.64 t_c for e -> 1,
-  // 0.29 t_c at e = 0.1; see verlet_stability_limit) a run is refused even with time.force.
+           "dt <= t_c/" + std::to_string(static_cast<int>(soft)) + " = " + std::to_string(tc_min / soft) +
+               (c.exact_contacts ? " (dense packings are not stable beyond" : " (the restitution is badly wrong beyond") +
+               "; set time.force = true to run anyway)");
+  // Beyond the stability limit on one contact a run is refused even with time.force: for
+  // Verlet 0.64 t_c at e -> 1, 0.29 t_c at e = 0.1 (verlet_stability_limit); the exact scheme
+  // follows a lone contact at any step, but its onset step assumes the contact lasts longer
+  // than two steps (t_c / 2).
   double dt_stable = 1e300;
-  for (const auto& s : c.species) dt_stable = std::min(dt_stable, verlet_stability_limit(s.t_c, s.e));
-  for (const auto& q : c.pairs) dt_stable = std::min(dt_stable, verlet_stability_limit(q.t_c, q.e));
+  for (const auto& s : c.species)
+    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * s.t_c : verlet_stability_limit(s.t_c, s.e));
+  for (const auto& q : c.pairs)
+    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * q.t_c : verlet_stability_limit(q.t_c, q.e));
   if (c.dt >= dt_stable)
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt below the stability limit " + std::to_string(dt_stable) +
-               " of velocity Verlet on the contact spring (unstable beyond, even with time.force)");
+               " of the contact scheme (unstable beyond, even with time.force)");
   c.t_end = positive(f, "time.end");
 
   // ---- initial particles

@@ -76,6 +76,7 @@ struct Config {
   std::vector<std::string> modules;
   Vec3 gravity{0, 0, 0};
   bool clip_normal = false;
+  bool exact_contacts = true;  // contact.scheme: "exact" (true) or "verlet"
   // Lubrication (module "lubrication"): Reynolds pair force for gaps 0..reach, cut at roughness
   double lubrication_roughness = 0, lubrication_viscosity = 0, lubrication_reach = 0;
   double skin = 0;                // Verlet skin; default 0.1 x largest diameter

@@ -35,22 +35,29 @@ void ChannelWalls::post_rebuild(Simulation& sim) {
 void ChannelWalls::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   if (candidates_.size() != p.nlocal) post_rebuild(sim);
-  const bool fric = law_.friction();
+  const bool fric = law_.friction(), exact = law_.exact();
+  const double dt = law_.dt();
   double worst = 0;
+  shifts_.clear();
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const std::uint64_t cand = candidates_[i];
     if (!cand) continue;
     const double a = p.radius[i];
+    // The exact scheme also looks at faces the particle left during the step (it moved at
+    // most |v| dt), to correct their exit.
+    const double reach = exact ? a + p.v[i].norm() * dt : a;
     touching_.clear();
     for (std::uint64_t m = cand; m; m &= m - 1)  // ascending feature order, as contacts() gives
-      geometry_.feature_contact(std::countr_zero(m), p.x[i][0], p.x[i][1], a, touching_);
+      geometry_.feature_contact(std::countr_zero(m), p.x[i][0], p.x[i][1], reach, touching_);
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + first_slot_] : nullptr;
     // Springs of features no longer touched relax to zero (a new contact starts unloaded).
     if (fric) {
       std::uint64_t touched = 0;
-      for (const auto& c : touching_) touched |= std::uint64_t{1} << c.feature;
+      for (const auto& c : touching_)
+        if (c.distance < a) touched |= std::uint64_t{1} << c.feature;
       for (std::uint64_t m = cand & ~touched; m; m &= m - 1) xi[std::countr_zero(m)].setZero();
     }
+    Vec3 move = Vec3::Zero();
     for (const auto& c : touching_) {
       if (c.distance <= 0) {
         std::ostringstream os;
@@ -58,11 +65,17 @@ void ChannelWalls::force(Simulation& sim) {
         sim.raise_guard(os.str());
         continue;
       }
+      const Vec3 n(c.nx, c.ny, 0);
+      const double delta = a - c.distance;
+      if (delta <= 0 && delta + p.v[i].dot(n) * dt <= 0) continue;  // not touching, nor a step ago
       Vec3 torque;
-      p.f[i] += law_.wall_force(p, i, Vec3(c.nx, c.ny, 0), a - c.distance, fric ? &xi[c.feature] : nullptr, torque);
-      if (fric) p.torque[i] += torque;
-      if ((a - c.distance) / a > worst) { worst = (a - c.distance) / a; worst_id_ = p.id[i]; }
+      double shift = 0;
+      p.f[i] += law_.wall_force(p, i, n, delta, fric && delta > 0 ? &xi[c.feature] : nullptr, torque, true, &shift);
+      move += shift * n;
+      if (fric && delta > 0) p.torque[i] += torque;
+      if (delta / a > worst) { worst = delta / a; worst_id_ = p.id[i]; }
     }
+    if (!move.isZero(0)) shifts_.add(i, move);
   }
   max_overlap_ = worst;
 }
@@ -84,5 +97,7 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
     }
   }
 }
+
+void ChannelWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
 }  // namespace cassini

@@ -15,8 +15,9 @@ class ChannelWalls : public Module {
  public:
   ChannelWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
-  unsigned stages() const override { return kForce | kRebuild; }
+  unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
   void force(Simulation& sim) override;
+  void final_integrate(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   double max_overlap_fraction() const { return max_overlap_; }
@@ -25,6 +26,7 @@ class ChannelWalls : public Module {
 
  private:
   LinearSpringDashpot law_;
+  PendingShifts shifts_;
   ChannelGeometry geometry_;
   int first_slot_;
   double max_overlap_ = 0;

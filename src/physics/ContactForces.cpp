@@ -41,18 +41,26 @@ void ContactForces::force(Simulation& sim) {
   MirrorResult* OUT = mirrored_.data();
   Vec3* FORCE = p.f.data();
   Vec3* TORQUE = fric ? p.torque.data() : nullptr;
+  const bool exact = law_.exact();
+  const double dt = law_.dt();
+  shifts_.clear();
   for (std::size_t i = 0; i < nlocal; ++i) {
     if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up
     const Vec3 xi = X[i], vi = V[i];
     const double ai = A[i], mi = M[i];
     const int si = S[i];
-    Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero();
+    Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
     for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
       const std::uint32_t j = partner[k];
       if (j < i) {  // owned partner, already evaluated from j's side
         if (!T[k]) continue;
         const MirrorResult& r = OUT[k];
         fsum += r.f;
+        if (exact) dsum += r.shift;
+        if (T[k] == kParted) {  // the exact scheme's exit step: a force, not a contact
+          T[k] = 0;
+          continue;
+        }
         if (fric) tsum += r.torque;
         ++contacts;
         overlap_sum += r.frac;
@@ -69,6 +77,25 @@ void ContactForces::force(Simulation& sim) {
           if (mk != kNoMirror) {
             T[mk] = 0;
             if (fric) XI[mk].setZero();
+          }
+          // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
+          // touched at the last evaluation can have parted during the step.
+          if (exact) {
+            const double r = std::sqrt(r2);
+            const Vec3 n = d / r;
+            const double mj = M[j];
+            const double m = mi * mj / (mi + mj);
+            const NormalStep ns = law_.normal(law_.law(si, S[j]), m, R - r, (vi - V[j]).dot(n));
+            if (ns.fn != 0 || ns.shift != 0) {
+              const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
+              fsum += f;
+              dsum += shift;
+              if (mk != kNoMirror) {
+                T[mk] = kParted;
+                OUT[mk].f = -f;
+                OUT[mk].shift = (-(m / mj) * ns.shift) * (-n);
+              }
+            }
           }
         }
         continue;
@@ -90,8 +117,11 @@ void ContactForces::force(Simulation& sim) {
       // periodic boundary before a migration) may differ in the last bits: then j's side is
       // evaluated on its own spring, as j would.
       const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k];
-      const Vec3 f = law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft);
+      double shift = 0;
+      const Vec3 f = law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift);
       fsum += f;
+      // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
+      if (shift != 0) dsum += (-(m / mi) * shift) * n;
       if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
       ++contacts;
       const double frac = delta / std::min(ai, A[j]);
@@ -101,6 +131,7 @@ void ContactForces::force(Simulation& sim) {
         T[mk] = 1;
         MirrorResult& out = OUT[mk];
         out.frac = frac;
+        out.shift = shift != 0 ? Vec3((-(m / mj) * shift) * (-n)) : Vec3::Zero();
         if (!fric) {
           out.f = -f;
         } else {
@@ -119,6 +150,7 @@ void ContactForces::force(Simulation& sim) {
     }
     FORCE[i] += fsum;
     if (fric) TORQUE[i] += tsum;
+    if (exact && !dsum.isZero(0)) shifts_.add(i, dsum);
   }
   contacts_ = contacts;
   overlap_sum_ = overlap_sum;
@@ -126,6 +158,8 @@ void ContactForces::force(Simulation& sim) {
   max_overlap_ = worst;
   worst_id_ = worst_id;
 }
+
+void ContactForces::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
 double ContactForces::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
@@ -224,7 +258,15 @@ void ContactForces::post_rebuild(Simulation& sim) {
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
       const std::uint32_t j = nl.partner[k];
       const double R = p.radius[i] + p.radius[j];
-      touching_[k] = (p.x[i] - p.x[j]).squaredNorm() < R * R;
+      const Vec3 d = p.x[i] - p.x[j];
+      touching_[k] = d.squaredNorm() < R * R;
+      // The exact scheme needs to know which pairs touched a step ago (to correct their exit):
+      // from the state, delta + v_n dt > 0. Rebuilds happen at the same steps on any number
+      // of ranks and at every snapshot, so this keeps runs rank-independent and restart-exact.
+      if (!touching_[k] && law_.exact()) {
+        const double r = d.norm();
+        if (R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0) touching_[k] = 1;
+      }
     }
   if (!law_.friction()) return;
   auto& stash = sim.history;

@@ -16,7 +16,9 @@ class ContactForces : public Module {
  public:
   ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
   std::string name() const override { return law_.friction() ? "contact (LSD + friction)" : "contact (LSD)"; }
-  unsigned stages() const override { return kForce | kRebuild; }
+  // The exact scheme moves pairs at its onset and exit steps, at the end of the step.
+  unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
+  void final_integrate(Simulation& sim) override;
 
   void force(Simulation& sim) override;
   void pre_rebuild(Simulation& sim) override;
@@ -42,9 +44,10 @@ class ContactForces : public Module {
   // the partner is a ghost), and the partner-side result written when the pair is evaluated.
   static constexpr std::uint32_t kNoMirror = 0xffffffffu;
   struct MirrorResult {
-    Vec3 f, torque;
+    Vec3 f, torque, shift;
     double frac;
   };
+  static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, result in mirrored_
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
 
   LinearSpringDashpot law_;
@@ -52,6 +55,7 @@ class ContactForces : public Module {
   std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
+  PendingShifts shifts_;  // exact scheme: moves of this step
   double overlap_sum_ = 0;
   long collisions_ = 0;
   long contacts_ = 0;

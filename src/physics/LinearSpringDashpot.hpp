@@ -3,13 +3,41 @@
 // restitution e through the reduced mass m_ij:
 //   eta = -ln(e)/t_c, omega = pi/t_c, k = m_ij (omega^2 + eta^2), gamma = 2 m_ij eta,
 // so that a free binary collision lasts exactly t_c and returns exactly e. The normal force
-// is f_n = k delta - gamma v_n; by default it may pull slightly at the end of a contact (that
-// is what the exact relations assume). clip_normal = true clips it at zero, which makes the
+// is f_n = k delta - gamma v_n; it may pull slightly at the end of a contact (that is what
+// the exact relations assume). clip_normal = true clips it at zero, which makes the
 // effective restitution larger than e (noticeably for small e).
+//
+// Two ways to integrate it (contact.scheme):
+//  - "verlet": the force above, evaluated at x(t+dt) and the half-step velocity, as LAMMPS,
+//    LIGGGHTS and MercuryDPM do. The dashpot's half-step lag and a contact that starts or ends
+//    between steps make the restitution wrong by up to ~3 |ln e| / N_c, at first order in dt.
+//  - "exact" (default): the step reproduces the exact solution of the binary collision at
+//    every step, for any onset phase and any N_c. Velocity Verlet is leapfrog in the half-step
+//    velocities, x_{n+1} = x_n + dt v_{n+1/2}, v_{n+1/2} = v_{n-1/2} + dt a_n; if the overlaps
+//    delta_{n-1}, delta_n are exact samples of a contact, a_n = (delta_{n+1} - 2 delta_n +
+//    delta_{n-1}) / dt^2 with the exact delta_{n+1} keeps them exact. Inside a contact this is
+//    the spring-dashpot itself with discrete constants (the damped oscillator's samples obey
+//    delta_{n+1} = 2 rho cos(omega dt) delta_n - rho^2 delta_{n-1}, rho = exp(-eta dt)):
+//        k_eff = m ((1 - rho)^2 + 4 rho sin^2(omega dt / 2)) / dt^2,  gamma_eff = m (1 - rho^2) / dt
+//    (-> k, gamma as dt -> 0; e = 1: Verlet with the stiffness whose discrete period is t_c).
+//    The two steps where the contact starts or ends inside a step get a closed-form correction:
+//    the step in which an overlap first appears (delta_n > 0 >= delta_{n-1}, the last step was
+//    free flight, so the contact began delta_n / v a step ago) moves the pair to the exact
+//    overlap and sets its normal velocity to the exact chord of the next step; the step in which
+//    it is first gone (delta_n <= 0 < delta_{n-1}: two samples of the oscillator locate the
+//    exit and its velocity) moves it to the exact free-flight position and gives it the exit
+//    velocity. The moves are position shifts split by mass (momentum and centre of mass kept),
+//    applied at the end of the step, so nothing is carried from step to step: the scheme is
+//    memoryless, restart-exact and rank-independent like the force. Everything reads the state
+//    of the step (delta_n, and delta_{n-1} ~ delta_n + v_n dt from the half-step normal velocity).
+//    Why this route and not a per-pair propagator over the whole step: additive pair propagators
+//    are not symplectic in dense packings (an elastic chain gains energy), while here every
+//    in-contact step is velocity Verlet, so packings are as stable as under Verlet.
 //
 // Tangential (only when friction is on): spring xi with history, f_t = -k_t xi - gamma_t v_t,
 // capped by Coulomb (|f_t| <= mu_s f_n static; on sliding |f_t| = mu_d f_n and xi reset so
-// that k_t |xi| = mu_d f_n).
+// that k_t |xi| = mu_d f_n). Under "exact" the spring grows only over the part of the onset
+// step the spheres were in contact.
 //
 // Every operation is sign-symmetric, so that evaluating the pair from j's side (negated n,
 // vrel and spring) gives exactly the negated result, bitwise, provided no product is fused
@@ -61,12 +89,37 @@ struct PairLaw {
   double k_per_mass;      // omega^2 + eta^2
   double gamma_per_mass;  // 2 eta
   double kt_ratio, gammat_ratio, mu_s, mu_d;
+  // "exact" scheme: the discrete constants and the oscillator (see the top of this file)
+  double k_eff, gamma_eff, eta, omega, cos_w, sin_w, exp_eta;  // cos/sin(omega dt), exp(eta dt)
+};
+
+// The normal part of one evaluation: force along n (repulsive > 0), the overlap the pair is to
+// be moved by at the end of the step (split by mass), and the time of this step the spheres
+// were in contact (the tangential spring's increment; dt inside a contact, 0 when parted).
+struct NormalStep {
+  double fn = 0, shift = 0, contact_time = 0;
+};
+
+// Moves the exact scheme asks for at onset and exit steps, applied to owned particles at the end
+// of the step (final_integrate), after every force of the step has been evaluated.
+class PendingShifts {
+ public:
+  void clear() { moves_.clear(); }
+  void add(std::size_t i, const Vec3& d) { moves_.push_back({i, d}); }
+  void apply(ParticleStore& p) {
+    for (const auto& [i, d] : moves_) p.x[i] += d;
+    moves_.clear();
+  }
+
+ private:
+  std::vector<std::pair<std::size_t, Vec3>> moves_;
 };
 
 class LinearSpringDashpot {
  public:
   LinearSpringDashpot(const Config& cfg, double dt) : n_(static_cast<int>(cfg.species.size())), dt_(dt) {
     clip_ = cfg.clip_normal;
+    exact_ = cfg.exact_contacts;
     friction_ = cfg.friction();
     table_.resize(n_ * n_);
     for (int a = 0; a < n_; ++a)
@@ -75,12 +128,62 @@ class LinearSpringDashpot {
         // mix their species' values unless a [[pair]] table sets them (Config::pair).
         const PairParameters& q = cfg.pair(a, b);
         const double eta = -std::log(q.e) / q.t_c, omega = std::numbers::pi / q.t_c;
-        table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, q.kt_ratio, q.gammat_ratio, q.mu_s, q.mu_d};
+        // Cancellation-free: 1 + rho^2 - 2 rho cos = (1 - rho)^2 + 4 rho sin^2(omega dt / 2).
+        const double rho = std::exp(-eta * dt), one_minus_rho = -std::expm1(-eta * dt);
+        const double half = std::sin(0.5 * omega * dt);
+        const double k_eff = (one_minus_rho * one_minus_rho + 4 * rho * half * half) / (dt * dt);
+        const double gamma_eff = -std::expm1(-2 * eta * dt) / dt;
+        table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, q.kt_ratio, q.gammat_ratio, q.mu_s, q.mu_d,
+                              k_eff, gamma_eff, eta, omega, std::cos(omega * dt), std::sin(omega * dt),
+                              std::exp(eta * dt)};
       }
   }
 
   const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
   bool friction() const { return friction_; }
+  bool exact() const { return exact_; }
+  double dt() const { return dt_; }
+
+  // The normal law for overlap delta (may be <= 0: a pair that parted this step) and normal
+  // velocity vn = vrel . n (< 0 approaching) of the last half step; m: reduced mass.
+  NormalStep normal(const PairLaw& L, double m, double delta, double vn) const {
+    NormalStep r;
+    if (!exact_) {
+      if (delta <= 0) return r;
+      r.fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
+      if (clip_ && r.fn < 0) r.fn = 0;
+      r.contact_time = dt_;
+      return r;
+    }
+    const double dt = dt_, before = delta + vn * dt;  // the overlap a step ago
+    if (delta > 0 && before > 0) {  // inside a contact: the damped oscillator's recurrence
+      r.fn = m * (L.k_eff * delta - L.gamma_eff * vn);
+      r.contact_time = dt;
+      return r;
+    }
+    if (delta <= 0 && before <= 0) return r;  // free flight
+    double target, chord;  // the exact overlap now, and the exact chord of the next step
+    if (delta > 0) {  // began during the last step, delta / u ago (u = -vn > 0, free flight before)
+      const double u = -vn, since = delta / u;
+      // Overlap of a contact that began s ago at speed u: u exp(-eta s) sin(omega s) / omega.
+      auto overlap = [&](double s) { return u * std::exp(-L.eta * s) * std::sin(L.omega * s) / L.omega; };
+      target = overlap(since);
+      chord = (overlap(since + dt) - target) / dt;
+      r.contact_time = since;
+    } else {  // ended during the last step: delta_{n-1} = before and delta_n = delta lie on
+      // delta(s) = exp(-eta s) (before cos(omega s) + q sin(omega s)), s from the last step,
+      // which reaches zero at omega s = pi - atan2(before, q) with speed -|.| omega exp(-eta s).
+      const double q = (delta * L.exp_eta - before * L.cos_w) / L.sin_w;
+      const double exit = (std::numbers::pi - std::atan2(before, q)) / L.omega;
+      const double speed = -std::hypot(before, q) * L.omega * std::exp(-L.eta * exit);
+      target = speed * (dt - exit);
+      chord = speed;
+    }
+    // a_n (per reduced mass, along n) turns the last chord (-vn) into `chord`.
+    r.fn = m * (-vn - chord) / dt;
+    r.shift = target - delta;
+    return r;
+  }
 
   // Force on body i. n: unit normal pointing from the partner to i; delta: overlap;
   // vrel: velocity of i's contact point relative to the partner's; m: reduced mass.
@@ -88,12 +191,13 @@ class LinearSpringDashpot {
   // advance = false evaluates the force of the spring as it stands, without this step's
   // increment v_t dt: for reports (snapshots, stress) after the step already advanced it.
   [[gnu::always_inline]] Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi,
-                                     Vec3& ft, bool advance = true) const {
+                                     Vec3& ft, bool advance = true, double* shift = nullptr) const {
     const double vn = vrel.dot(n);
-    double fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
-    if (clip_ && fn < 0) fn = 0;
+    const NormalStep ns = normal(L, m, delta, vn);
+    if (shift) *shift = ns.shift;
+    const double fn = ns.fn;
     Vec3 f = fn * n;
-    if (!xi) {
+    if (!xi || delta <= 0) {  // no friction, or the spheres parted: no tangential force
       ft.setZero();
       return f;
     }
@@ -107,7 +211,7 @@ class LinearSpringDashpot {
       const double slen2 = s.squaredNorm();
       if (slen2 > 0) s *= std::sqrt(len2 / slen2);
     }
-    if (advance) s += vt * dt_;
+    if (advance) s += vt * ns.contact_time;
     const double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
     ft = -kt * s - gt * vt;
     const double cap = L.mu_s * std::max(fn, 0.0);
@@ -125,13 +229,16 @@ class LinearSpringDashpot {
   // Force on particle i of p from an immovable wall (infinite mass: m_ij = m_i, the particle's
   // own species). n: unit normal from the wall to the centre; delta: overlap; xi: the (particle,
   // wall) spring or nullptr without friction. torque receives the wall's torque on i.
+  // shift (if given) receives the distance to move the particle along n at the end of the step.
   Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque,
-                  bool advance = true) const {
+                  bool advance = true, double* shift = nullptr) const {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
     if (xi) vrel -= a * p.omega[i].cross(n);
     const int sp = p.species[i];
-    const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft, advance);
+    double overlap_shift = 0;
+    const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift);
+    if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
     if (xi) torque = (-a * n).cross(ft);  // frictionless walls exert no torque: skip the work
     else torque.setZero();
     return f;
@@ -140,7 +247,7 @@ class LinearSpringDashpot {
  private:
   int n_;
   double dt_;
-  bool clip_ = false, friction_ = false;
+  bool clip_ = false, friction_ = false, exact_ = true;
   std::vector<PairLaw> table_;
 };
 

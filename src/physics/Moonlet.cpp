@@ -39,6 +39,9 @@ void Moonlet::force(Simulation& sim) {
   }
   double worst = 0;
   long contacts = 0;
+  const bool exact = law_.exact();
+  const double dt = law_.dt();
+  shifts_.clear();
   for (std::size_t i = 0; i < n; ++i) {
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
     const double d2 = x * x + y * y + z * z, reach = R + A[i];
@@ -47,11 +50,18 @@ void Moonlet::force(Simulation& sim) {
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + slot_] : nullptr;
     if (d2 >= reach * reach || d2 == 0) {
       if (xi) xi->setZero();
-      continue;
+      // The exact scheme's exit step (touching a step ago: it moved at most |v| dt since).
+      const double far = reach + p.v[i].norm() * dt;
+      if (!exact || d2 == 0 || d2 >= far * far) continue;
     }
     const double d = std::sqrt(d2), delta = reach - d;
+    const Vec3 normal = Vec3(x, y, z) / d;
+    if (delta <= 0 && delta + p.v[i].dot(normal) * dt <= 0) continue;
     Vec3 torque;
-    F[i] += law_.wall_force(p, i, Vec3(x, y, z) / d, delta, xi, torque);
+    double shift = 0;
+    F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift);
+    if (shift != 0) shifts_.add(i, shift * normal);
+    if (delta <= 0) continue;
     if (fric) p.torque[i] += torque;
     if (delta / A[i] > worst) { worst = delta / A[i]; worst_id_ = p.id[i]; }
     ++contacts;
@@ -90,5 +100,7 @@ void Moonlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * gravity(p.x[i]);
 }
+
+void Moonlet::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
 }  // namespace cassini

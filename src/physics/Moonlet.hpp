@@ -19,7 +19,8 @@ class Moonlet : public Module {
   // slot: the moonlet's column in the particles' wall springs (used with friction).
   Moonlet(const Config& cfg, double dt, int slot);
   std::string name() const override { return "moonlet"; }
-  unsigned stages() const override { return kForce; }
+  unsigned stages() const override { return kForce | (law_.exact() ? kFinalIntegrate : 0u); }
+  void final_integrate(Simulation& sim) override;
   void force(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
@@ -39,6 +40,7 @@ class Moonlet : public Module {
     return -gm / (d * d * d);
   }
   LinearSpringDashpot law_;
+  PendingShifts shifts_;
   double gm_, radius_;
   int dims_;
   int slot_;

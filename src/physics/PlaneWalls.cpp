@@ -20,25 +20,32 @@ PlaneWalls::PlaneWalls(const Config& cfg, double dt) : law_(cfg, dt), planes_(do
 
 void PlaneWalls::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
-  const bool fric = law_.friction();
+  const bool fric = law_.friction(), exact = law_.exact();
+  const double dt = law_.dt();
   const int nw = static_cast<int>(planes_.size());
   double worst = 0;
+  shifts_.clear();
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const double a = p.radius[i];
+    Vec3 move = Vec3::Zero();
     for (int w = 0; w < nw; ++w) {
       const Plane& pl = planes_[w];
       const double s = (p.x[i] - pl.point).dot(pl.normal);
       Vec3* xi = fric ? &p.wall_xi[i * p.walls + w] : nullptr;  // planes take the first slots
       if (s >= a) {
         if (xi) xi->setZero();
-        continue;
+        // The exact scheme's exit step: touching a step ago (a - s + v_n dt > 0), parted now.
+        if (!exact || a - s + p.v[i].dot(pl.normal) * dt <= 0) continue;
       }
       const double delta = a - s;
       Vec3 torque;
-      p.f[i] += law_.wall_force(p, i, pl.normal, delta, xi, torque);
-      if (fric) p.torque[i] += torque;
+      double shift = 0;
+      p.f[i] += law_.wall_force(p, i, pl.normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift);
+      move += shift * pl.normal;
+      if (fric && delta > 0) p.torque[i] += torque;
       if (delta / a > worst) { worst = delta / a; worst_id_ = p.id[i]; }
     }
+    if (!move.isZero(0)) shifts_.add(i, move);
   }
   max_overlap_ = worst;
 }
@@ -57,5 +64,7 @@ void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out)
       out.push_back({p.id[i], p.x[i] - s * pl.normal, s * pl.normal, f});
     }
 }
+
+void PlaneWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
 }  // namespace cassini

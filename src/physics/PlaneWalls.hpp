@@ -19,8 +19,9 @@ class PlaneWalls : public Module {
  public:
   PlaneWalls(const Config& cfg, double dt);
   std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
-  unsigned stages() const override { return kForce; }
+  unsigned stages() const override { return kForce | (law_.exact() ? kFinalIntegrate : 0u); }
   void force(Simulation& sim) override;
+  void final_integrate(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   const std::vector<Plane>& planes() const { return planes_; }
   double max_overlap_fraction() const { return max_overlap_; }
@@ -28,6 +29,7 @@ class PlaneWalls : public Module {
 
  private:
   LinearSpringDashpot law_;
+  PendingShifts shifts_;
   std::vector<Plane> planes_;
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;
