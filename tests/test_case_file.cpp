@@ -62,12 +62,22 @@ TEST(CaseFile, ImpossibleValuesAreRefused) {
   expect_error({"domain.boundary=[\"periodic\", \"sticky\", \"wall\"]"}, "domain.boundary", "\"periodic\", \"wall\" or \"open\"");
 }
 
-TEST(CaseFile, TimeStepAboveTenthOfContactTimeNeedsForce) {
-  expect_error({"time.dt=2.0e-6"}, "time.dt", "t_c/10");
-  expect_error({"time.n_c=5"}, "time.n_c", "time.force = true");
-  EXPECT_EQ(error_of({"time.dt=2.0e-6", "time.force=true"}), "");
-  // Beyond the stability bound of the integrator even force does not help.
-  expect_error({"time.dt=7.0e-6", "time.force=true"}, "time.dt", "unstable");
+TEST(CaseFile, LongTimeStepsNeedForceAndUnstableOnesAreRefused) {
+  // Verlet: the restitution is badly wrong beyond t_c / 10; the exact scheme allows t_c / 5
+  // (dense packings). kGood's t_c is 1e-5 s.
+  const std::string verlet = "contact.scheme=\"verlet\"";
+  expect_error({"time.dt=2.0e-6", verlet}, "time.dt", "t_c/10");
+  expect_error({"time.n_c=5", verlet}, "time.n_c", "time.force = true");
+  EXPECT_EQ(error_of({"time.dt=2.0e-6", "time.force=true", verlet}), "");
+  EXPECT_EQ(error_of({"time.dt=2.0e-6"}), "");
+  expect_error({"time.dt=3.0e-6"}, "time.dt", "t_c/5");
+  expect_error({"time.n_c=4"}, "time.n_c", "time.force = true");
+  EXPECT_EQ(error_of({"time.dt=3.0e-6", "time.force=true"}), "");
+  // Beyond the stability bound of the scheme even force does not help.
+  expect_error({"time.dt=7.0e-6", "time.force=true", verlet}, "time.dt", "unstable");
+  expect_error({"time.dt=6.0e-6", "time.force=true"}, "time.dt", "unstable");
+  expect_error({"contact.scheme=\"leapfrog\""}, "contact.scheme", "\"exact\" or \"verlet\"");
+  expect_error({"contact.scheme=\"exact\"", "contact.clip_normal=true"}, "contact.scheme", "clip_normal");
 }
 
 TEST(CaseFile, WrongTypesAreRefused) {

@@ -224,7 +224,7 @@ TEST(ChannelWalls, BeadPressedIntoTheNeckByDragComesToRestAtTheForceBalance) {
   // A frictionless 80 um bead in front of a 60 um sharp neck rests on the neck's two vertical
   // edges at y = +-30 um (the 45 deg faces end before its contact points would reach them).
   // Equilibrium: the edges push along (x, -+30 um) / r with r = a - delta; x balance
-  // 2 N |x| / r = F_drag, delta = N / k with the wall's k = m (omega^2 + eta^2).
+  // 2 N |x| / r = F_drag, delta = N / k with the wall's k (reduced mass m).
   auto sim = make_sim(channel_case(R"(["contact", "channel", "drag"])"),
                       {"channel.neck_width=6.0e-5", "drag.voidage=\"stokes\"", "species[0].radius=4.0e-5",
                        "species[0].mu_s=0.0"});
@@ -245,7 +245,10 @@ TEST(ChannelWalls, BeadPressedIntoTheNeckByDragComesToRestAtTheForceBalance) {
   const Vec3 x = sim->particles.x[0];
   const Vec3 u = drag->flow().velocity(x);
   const double fd = 6 * std::numbers::pi * 1.8e-3 * a * u[0];
-  const double tc = 1e-4, eta = -std::log(0.1) / tc, k = m * (std::pow(std::numbers::pi / tc, 2) + eta * eta);
+  // Under a steady load the exact scheme's normal spring is its discrete k_eff
+  // (LinearSpringDashpot.hpp): m (1 + rho^2 - 2 rho cos(omega dt)) / dt^2, rho = exp(-eta dt).
+  const double tc = 1e-4, eta = -std::log(0.1) / tc, dt = sim->dt, rho = std::exp(-eta * dt);
+  const double k = m * (1 + rho * rho - 2 * rho * std::cos(std::numbers::pi / tc * dt)) / (dt * dt);
   double r = a, xe = 0, delta = 0;
   for (int it = 0; it < 50; ++it) {  // fixed point of r = a - N(r)/k
     xe = -std::sqrt(r * r - half * half);

@@ -89,25 +89,33 @@ TEST(LeesEdwards, DiluteShearedGasDevelopsTheImposedLinearProfile) {
   // averaged over the last three quarters of the run.
   // Ly = 10 d keeps the slowest shear mode's decay time Ly^2/(4 pi^2 nu) ~ 5 ms short
   // against the 80 ms run.
-  auto sim = make_sim(kSheared, {"domain.lo=[0.0, -0.005, 0.0]", "domain.hi=[0.012, 0.005, 0.012]",
-                                 "particles.velocity_sigma=1.0", "domain.shear_rate=200.0"});
-  sim->setup();
+  // One run's slope scatters by ~3 % between seeds (the gas holds ~270 particles); the mean of
+  // six seeds by ~1.3 %, so a 3.5 % bound is ~2.7 standard errors.
   const double rate = 200.0;
-  const long steps = 200000;
-  double sxy = 0, syy = 0, sx = 0, sy = 0, n = 0;
-  for (long s = 1; s <= steps; ++s) {
-    sim->step();
-    if (s > steps / 4 && s % 100 == 0) {
-      const auto& p = sim->particles;
-      for (std::size_t i = 0; i < p.nlocal; ++i) {
-        const double y = p.x[i][1], vx = p.v[i][0];
-        sxy += y * vx; syy += y * y; sx += vx; sy += y; n += 1;
+  double sum = 0;
+  const std::vector<int> seeds = {21, 22, 23, 24, 25, 26};
+  for (int seed : seeds) {
+    auto sim = make_sim(kSheared, {"domain.lo=[0.0, -0.005, 0.0]", "domain.hi=[0.012, 0.005, 0.012]",
+                                   "particles.velocity_sigma=1.0", "domain.shear_rate=200.0",
+                                   "seed=" + std::to_string(seed)});
+    sim->setup();
+    const long steps = 200000;
+    double sxy = 0, syy = 0, sx = 0, sy = 0, n = 0;
+    for (long s = 1; s <= steps; ++s) {
+      sim->step();
+      if (s > steps / 4 && s % 100 == 0) {
+        const auto& p = sim->particles;
+        for (std::size_t i = 0; i < p.nlocal; ++i) {
+          const double y = p.x[i][1], vx = p.v[i][0];
+          sxy += y * vx; syy += y * y; sx += vx; sy += y; n += 1;
+        }
       }
     }
+    const double slope = (sxy / n - sx / n * sy / n) / (syy / n - sy / n * sy / n);
+    std::printf("sheared gas, seed %d: fitted slope %.3f 1/s, imposed %.1f 1/s\n", seed, slope, rate);
+    sum += slope;
   }
-  const double slope = (sxy / n - sx / n * sy / n) / (syy / n - sy / n * sy / n);
-  std::printf("sheared gas: fitted slope %.3f 1/s, imposed %.1f 1/s\n", slope, rate);
-  EXPECT_NEAR(slope / rate, 1.0, 0.02);
+  EXPECT_NEAR(sum / seeds.size() / rate, 1.0, 0.035);
 }
 
 TEST(GranularGas, FreeCoolingFollowsHaffsLaw) {
