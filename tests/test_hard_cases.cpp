@@ -201,7 +201,7 @@ TEST(HardCases, InitialOverlapsAreRefusedNamingTheParticle) {
 }
 
 TEST(HardCases, TimeStepJustUnderTheStabilityBoundStaysBounded) {
-  // A sphere resting on a floor (a persistent contact) with dt just under the integrator's
+  // Verlet: a sphere resting on a floor (a persistent contact) with dt just under the integrator's
   // stability limit (0.502 t_c at e = 0.5, from the one-step map's spectral radius):
   // inaccurate but stable, it settles at the static overlap m g / k. Just above the limit
   // the case is refused even with time.force.
@@ -209,7 +209,8 @@ TEST(HardCases, TimeStepJustUnderTheStabilityBoundStaysBounded) {
   const double bound = verlet_stability_limit(tc, e);
   EXPECT_NEAR(bound / tc, 0.502, 0.001);  // independent scan (numpy) of the same map: 0.5022
   const std::vector<std::string> floor = {"modules=[\"contact\", \"gravity\"]", "gravity.g=[0.0, 0.0, -9.81]",
-                                          "domain.boundary=[\"periodic\", \"periodic\", \"wall\"]", "time.force=true"};
+                                          "domain.boundary=[\"periodic\", \"periodic\", \"wall\"]", "time.force=true",
+                                          "contact.scheme=\"verlet\""};
   auto over = floor;
   over.push_back("time.dt=" + std::to_string(0.97 * bound));
   auto sim = make_sim(kPair, over);
@@ -222,6 +223,73 @@ TEST(HardCases, TimeStepJustUnderTheStabilityBoundStaysBounded) {
   auto refused = floor;
   refused.push_back("time.dt=" + std::to_string(1.03 * bound));
   EXPECT_THROW(config_from(kPair, refused), ConfigError);
+}
+
+TEST(HardCases, ExactSchemeJustUnderHalfTheContactTimeStaysBounded) {
+  // The exact scheme at dt = 0.49 t_c (its limit is t_c / 2): a sphere dropped on a floor
+  // bounces with exactly e and then rests at the static overlap m g / k_eff of the scheme.
+  const double e = 0.5, tc = 1e-4, dt = 0.49 * tc, g = 1000.0;
+  const double eta = -std::log(e) / tc, w = std::numbers::pi / tc, rho = std::exp(-eta * dt);
+  const double k_eff_per_mass = (1 + rho * rho - 2 * rho * std::cos(w * dt)) / (dt * dt);
+  char step[40];
+  std::snprintf(step, sizeof step, "time.dt=%.17g", dt);
+  auto sim = make_sim(kPair, {"modules=[\"contact\", \"gravity\"]", "gravity.g=[0.0, 0.0, -1000.0]",
+                              "domain.boundary=[\"periodic\", \"periodic\", \"wall\"]", "time.force=true", step});
+  sim->particles.add(0, 0, kA, kM, Vec3(0, 0, -0.05 + kA + 1e-5), Vec3(0, 0, -0.05));
+  sim->setup();
+  for (int s = 0; s < 20000; ++s) sim->step();
+  const double settle = g / k_eff_per_mass;
+  EXPECT_NEAR(-0.05 + kA - sim->particles.x[0][2], settle, 1e-6 * settle);
+  EXPECT_LT(std::abs(sim->particles.v[0][2]), 1e-9);
+  EXPECT_THROW(config_from(kPair, {"time.dt=5.0e-5", "time.force=true"}), ConfigError);  // = t_c / 2
+}
+
+TEST(HardCases, FrictionalPileSettlesAtFiveStepsPerContact) {
+  // A dense frictional pile (tests/settled-pile.toml, e = 0.2) with the exact scheme at N_c = 5,
+  // its soft limit: many persistent contacts per bead, opening and closing while it settles.
+  // It must come to rest with the floor carrying the weight, as at N_c = 50.
+  const char* pile = R"(
+seed = 3
+modules = ["contact", "walls", "gravity"]
+[domain]
+lo = [0.0, 0.0, 0.0]
+hi = [0.012, 0.004, 0.004]
+boundary = ["wall", "periodic", "periodic"]
+[[species]]
+density = 2500.0
+radius_min = 0.0004
+radius_max = 0.0005
+t_c = 1.0e-4
+e = 0.2
+mu_s = 0.5
+mu_d = 0.4
+[particles]
+init = "lattice"
+volume_fraction = 0.25
+jitter = 0.5
+[gravity]
+g = [-50.0, 0.0, 0.0]
+[time]
+n_c = 5
+end = 0.25
+)";
+  auto sim = make_sim(pile);
+  sim->setup();
+  double peak_ke = 0;
+  while (sim->time < 0.25 - 0.5 * sim->dt) {
+    sim->step();
+    peak_ke = std::max(peak_ke, sim->kinetic_energy());
+  }
+  double weight = 0;
+  for (std::size_t i = 0; i < sim->particles.nlocal; ++i) weight += 50.0 * sim->particles.mass[i];
+  std::vector<WallForce> walls;
+  for (const auto& mod : sim->modules) mod->wall_forces(*sim, walls);
+  double floor = 0;
+  for (const auto& wf : walls) floor += wf.force[0];
+  std::printf("pile at N_c = 5: %zu beads, peak KE %.3e J, final KE %.3e J, floor / weight - 1 = %.2e\n",
+              sim->particles.nlocal, peak_ke, sim->kinetic_energy(), floor / weight - 1);
+  EXPECT_LT(sim->kinetic_energy(), 1e-12 * peak_ke);
+  EXPECT_NEAR(floor / weight, 1.0, 1e-6);
 }
 
 TEST(HardCases, SingleParticleInAHugeEmptyDomain) {

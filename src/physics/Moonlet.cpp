@@ -50,8 +50,9 @@ void Moonlet::force(Simulation& sim) {
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + slot_] : nullptr;
     if (d2 >= reach * reach || d2 == 0) {
       if (xi) xi->setZero();
-      // The exact scheme's exit step (touching a step ago: it moved at most |v| dt since).
-      const double far = reach + p.v[i].norm() * dt;
+      // The exact scheme's exit step: touching a step ago. A particle moves less than its radius
+      // per step (the tunnelling guard), so only this shell needs the test.
+      const double far = reach + A[i];
       if (!exact || d2 == 0 || d2 >= far * far) continue;
     }
     const double d = std::sqrt(d2), delta = reach - d;

@@ -35,7 +35,8 @@ void PlaneWalls::force(Simulation& sim) {
       if (s >= a) {
         if (xi) xi->setZero();
         // The exact scheme's exit step: touching a step ago (a - s + v_n dt > 0), parted now.
-        if (!exact || a - s + p.v[i].dot(pl.normal) * dt <= 0) continue;
+        // (A particle moves less than its radius per step: the tunnelling guard.)
+        if (!exact || s >= 2 * a || a - s + p.v[i].dot(pl.normal) * dt <= 0) continue;
       }
       const double delta = a - s;
       Vec3 torque;
