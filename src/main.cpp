@@ -129,6 +129,7 @@ int main(int argc, char** argv) {
          << " particle-steps/s; " << sim.rebuilds << " neighbour rebuilds\noutput: " << out_dir
          << "/ (run.log, observables.csv, summary.json, dump/)";
     out.log(tail.str());
+    if (rank == 0) out.log(out.timing());
   } catch (const ConfigError& e) {  // thrown alike on every rank
     if (rank == 0) std::cerr << "error: " << e.what() << std::endl;
     if (out_ptr) {

@@ -107,6 +107,14 @@ check("a continuation keeps the run id", summary(f"{work}/r2")["run_id"] == run_
 # ---- 3. every stop is explained; summary.json is always valid JSON
 s = summary(f"{work}/r1")
 check("summary.json of a completed run", s["status"] == "completed" and s["stop_reason"] == "reached time.end", str(s))
+# Per-stage timers (as LAMMPS prints them): every stage on every rank, min <= mean <= max, the
+# means adding up to the wall time (the "other" stage is the rest), the pair loop doing work.
+st = s.get("stage_seconds", {})
+stages = ("integrate", "pair", "neighbour", "comm", "modules", "output", "other")
+check("summary.json has the time per stage",
+      all(k in st and 0 <= st[k]["min"] <= st[k]["mean"] <= st[k]["max"] for k in stages)
+      and abs(sum(st[k]["mean"] for k in stages) / s["wall_seconds"] - 1) < 1e-6 and st["pair"]["mean"] > 0, str(st))
+check("run.log has the table of time per stage", "time per stage" in open(f"{work}/r1/run.log").read(), "")
 guard_re = re.compile(r"guard tripped at step \d+, t = [0-9.e+-]+ s, rank \d: .*particle \d+")
 for label, line, needle in (("1e308 speed", "0.02 0.01 0.01 1e308 0 0 0.0005", "tunnelling"),
                             ("ten diameters per step", "0.02 0.01 0.01 5000 0 0 0.0005", "tunnelling")):

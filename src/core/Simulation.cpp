@@ -96,11 +96,23 @@ void Simulation::rebuild() {
     particles.nlocal = particles.size();
     incoming.clear();
   }
-  halo.migrate(particles, history);
-  particles.permute_local(NeighborList::spatial_order(particles, domain, range));
-  halo.build_ghosts(particles);
-  // Pairs listed up to a_i + a_j + reach + skin: lubrication acts across gaps.
-  neighbors.build(particles, domain, range, skin + cfg.lubrication_reach);
+  {
+    auto t = timers.scope(StageTimers::Comm);
+    halo.migrate(particles, history);
+  }
+  {
+    auto t = timers.scope(StageTimers::Neighbour);
+    particles.permute_local(NeighborList::spatial_order(particles, domain, range));
+  }
+  {
+    auto t = timers.scope(StageTimers::Comm);
+    halo.build_ghosts(particles);
+  }
+  {
+    // Pairs listed up to a_i + a_j + reach + skin: lubrication acts across gaps.
+    auto t = timers.scope(StageTimers::Neighbour);
+    neighbors.build(particles, domain, range, skin + cfg.lubrication_reach);
+  }
   if (domain.nranks > 1) {  // the cost balance the ranks actually ran with (summary.json)
     const double now = domain.imbalance(static_cast<double>(particles.nlocal + neighbors.size()));
     imbalance_sum += now;
@@ -117,7 +129,10 @@ void Simulation::compute_forces() {
   ParticleStore& p = particles;
   std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
   if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
-  for (Module* m : stage_[1]) m->force(*this);
+  for (Module* m : stage_[1]) {
+    auto t = timers.scope(m == contact ? StageTimers::Pair : StageTimers::Modules);
+    m->force(*this);
+  }
 }
 
 void Simulation::raise_guard(const std::string& why) {
@@ -137,7 +152,10 @@ void Simulation::step() {
   max_drift2 = 0;
   ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
-  for (Module* m : stage_[0]) m->initial_integrate(*this);
+  {
+    auto t = timers.scope(StageTimers::Integrate);
+    for (Module* m : stage_[0]) m->initial_integrate(*this);
+  }
   if (domain.shear.enabled) domain.shear.offset = domain.shear.rate * domain.length[1] * time;
 
   // One reduction per step decides both "rebuild?" and "did a guard trip last step?".
@@ -148,15 +166,28 @@ void Simulation::step() {
   double local[2] = {max_drift2, guard_message_.empty() ? 0.0 : 1.0};
   if (!std::isfinite(local[0])) local[1] = 1;
   double global[2];
-  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, domain.comm);
+  {
+    auto t = timers.scope(StageTimers::Comm);
+    MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, domain.comm);
+  }
   if (global[1] > 0) check_guards();
   const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * range;
-  if (approach > skin) rebuild();
-  else halo.update_ghosts(particles);
+  if (approach > skin) {
+    rebuild();
+  } else {
+    auto t = timers.scope(StageTimers::Comm);
+    halo.update_ghosts(particles);
+  }
 
   compute_forces();
-  for (Module* m : stage_[2]) m->final_integrate(*this);
-  for (Module* m : stage_[3]) m->end_of_step(*this);
+  {
+    auto t = timers.scope(StageTimers::Integrate);
+    for (Module* m : stage_[2]) m->final_integrate(*this);
+  }
+  {
+    auto t = timers.scope(StageTimers::Modules);
+    for (Module* m : stage_[3]) m->end_of_step(*this);
+  }
 }
 
 void Simulation::check_guards() {
@@ -186,6 +217,7 @@ void Simulation::run(RunOutput* out) {
   auto last_print = t0;
   long last_step = step_count;
   output_ = out;
+  timers.seconds.fill(0);  // the stages of the step loop only (not set-up, not a previous run)
   if (out) {
     out->observe(*this);
     if (dump_every) out->dump(*this, "step");
@@ -199,10 +231,12 @@ void Simulation::run(RunOutput* out) {
       output_ = nullptr;
       throw;
     }
-    if (out && step_count % observe_every == 0) out->observe(*this);
-    if (out && dump_every && step_count % dump_every == 0) out->dump(*this, "step");
-    if (out && snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt) out->snapshot(*this);
-    if (out && (step_count & 63) == 0) {
+    if (!out) continue;
+    auto t_out = timers.scope(StageTimers::Output);
+    if (step_count % observe_every == 0) out->observe(*this);
+    if (dump_every && step_count % dump_every == 0) out->dump(*this, "step");
+    if (snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt) out->snapshot(*this);
+    if ((step_count & 63) == 0) {
       const auto now = clock::now();
       const double since = std::chrono::duration<double>(now - last_print).count();
       int print = since >= cfg.progress_every;

@@ -12,6 +12,7 @@
 #include "core/Module.hpp"
 #include "core/NeighborList.hpp"
 #include "core/ParticleStore.hpp"
+#include "core/StageTimers.hpp"
 #include "parallel/Decomposition.hpp"
 #include "parallel/HaloExchange.hpp"
 
@@ -74,6 +75,7 @@ class Simulation {
   long step_count = 0;
   double range = 0, skin = 0;
   long rebuilds = 0;
+  StageTimers timers;  // this rank's wall time per stage of the step
   double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
   // Max / mean rank cost (particles + neighbour pairs) measured at every rebuild.
   double imbalance_sum = 0, imbalance_worst = 1;

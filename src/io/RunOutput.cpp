@@ -237,7 +237,32 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   const double mine = wall > 0 ? double(sim.particles.nlocal) * steps / wall : 0.0;
   std::vector<double> rates(sim.domain.nranks);
   MPI_Gather(&mine, 1, MPI_DOUBLE, rates.data(), 1, MPI_DOUBLE, 0, comm_);
+  // Stage times: min, mean and max over ranks (the spread is the load imbalance per stage).
+  constexpr int ns = StageTimers::kStages + 1;  // + "other": the rest of the wall time
+  std::array<double, ns> t{};
+  for (int k = 0; k < StageTimers::kStages; ++k) t[k] = sim.timers.seconds[k];
+  double staged = 0;
+  for (int k = 0; k < StageTimers::kStages; ++k) staged += t[k];
+  t[ns - 1] = std::max(0.0, wall - staged);
+  std::array<double, ns> tmin{}, tmax{}, tsum{};
+  MPI_Reduce(t.data(), tmin.data(), ns, MPI_DOUBLE, MPI_MIN, 0, comm_);
+  MPI_Reduce(t.data(), tmax.data(), ns, MPI_DOUBLE, MPI_MAX, 0, comm_);
+  MPI_Reduce(t.data(), tsum.data(), ns, MPI_DOUBLE, MPI_SUM, 0, comm_);
   if (rank_ != 0) return;
+  auto stage_name = [](int k) { return k < StageTimers::kStages ? StageTimers::names[k] : "other"; };
+  std::ostringstream table;
+  table.setf(std::ios::fixed);
+  table.precision(3);
+  table << "time per stage (s over the run; min / mean / max over ranks; % of the wall time " << wall << " s):";
+  for (int k = 0; k < ns; ++k) {
+    const double mean = tsum[k] / sim.domain.nranks;
+    table << "\n  " << std::left << std::setw(10) << stage_name(k) << std::right << std::setw(10) << tmin[k]
+          << std::setw(10) << mean << std::setw(10) << tmax[k] << std::setw(8) << std::setprecision(1)
+          << (wall > 0 ? 100 * mean / wall : 0.0) << " %  "
+          << (k < StageTimers::kStages ? StageTimers::meaning[k] : "set-up of the step loop, guards, the rest")
+          << std::setprecision(3);
+  }
+  timing_ = table.str();
   auto num = json_number;
   std::ostringstream js;
   js << "{\n"
@@ -263,7 +288,11 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   js << ",\n  \"imbalance_worst\": " << num(sim.imbalance_worst) << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
   for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << json_string(names[k]);
-  js << "],\n  \"final_kinetic_energy\": " << num(ke);
+  js << "],\n  \"final_kinetic_energy\": " << num(ke) << ",\n  \"stage_seconds\": {";
+  for (int k = 0; k < ns; ++k)
+    js << (k ? ", " : "") << "\n    " << json_string(stage_name(k)) << ": {\"min\": " << num(tmin[k])
+       << ", \"mean\": " << num(tsum[k] / sim.domain.nranks) << ", \"max\": " << num(tmax[k]) << "}";
+  js << "\n  }";
   if (sim.finished) js << ",\n  \"ended\": " << json_string(sim.finish_reason);
   for (const auto& [k, v] : sim.results) js << ",\n  " << json_string(k) << ": " << v;
   js << "\n}\n";

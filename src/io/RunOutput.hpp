@@ -35,12 +35,15 @@ class RunOutput {
   void summary(Simulation& sim, double wall_seconds, long steps_run, const std::string& status,
                const std::string& reason);
   void error_summary(const std::string& reason);     // rank 0: an error before or outside the step loop
+  // Rank 0, after summary(): the table of time per stage of the step (Simulation::timers).
+  const std::string& timing() const { return timing_; }
   void snapshot(Simulation& sim);                    // collective: dir/snap_<step>.h5md
   const std::string& dir() const { return dir_; }
   std::string case_text;                             // resolved case, stored in snapshots
   std::string run_id;                                // names the run in snapshots (kept on restart)
 
  private:
+  std::string timing_;
   void checked_flush(std::ofstream& out, const std::string& name);  // a failed write ends the job
   std::string dir_;
   int rank_ = 0;
