@@ -44,6 +44,14 @@ void ContactForces::force(Simulation& sim) {
   const bool exact = law_.exact();
   const double dt = law_.dt();
   shifts_.clear();
+  // A contact with a partner's image across a Lees-Edwards boundary does work at the image's
+  // velocity jump +-gamma_dot L_y: the boundary's share of the shear work (the rest comes with
+  // particles crossing, HaloExchange::shear_energy). Half on each side of the pair.
+  const bool sheared = sim.domain.shear.enabled;
+  const double y_lo = sim.domain.lo[1], y_hi = sim.domain.hi[1];
+  const double half_jump_dt = sheared ? 0.5 * sim.domain.shear.rate * sim.domain.length[1] * dt : 0.0;
+  double boundary_work = 0;
+  auto across = [&](std::uint32_t j) { return X[j][1] >= y_hi ? 1.0 : X[j][1] < y_lo ? -1.0 : 0.0; };
   for (std::size_t i = 0; i < nlocal; ++i) {
     if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up
     const Vec3 xi = X[i], vi = V[i];
@@ -90,6 +98,7 @@ void ContactForces::force(Simulation& sim) {
               const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
               fsum += f;
               dsum += shift;
+              if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
               if (mk != kNoMirror) {
                 T[mk] = kParted;
                 OUT[mk].f = -f;
@@ -101,7 +110,8 @@ void ContactForces::force(Simulation& sim) {
         continue;
       }
       // A ghost pair is counted by the lower id, wherever it lives; an owned pair once, here.
-      onsets += !T[k] && (mk != kNoMirror || ID[i] < ID[j]);
+      const bool onset = !T[k] && (mk != kNoMirror || ID[i] < ID[j]);
+      onsets += onset;
       T[k] = 1;
       const double r = std::sqrt(r2);
       const Vec3 n = d / r;
@@ -109,6 +119,11 @@ void ContactForces::force(Simulation& sim) {
       const double mj = M[j];
       const double m = mi * mj / (mi + mj);
       Vec3 vrel = vi - V[j];
+      if (onset) {  // the impact: speed u of the free approach (the velocity of the last step)
+        const double u = -vrel.dot(n), e = law_.law(si, S[j]).e;
+        impact_loss_ += 0.5 * (1 - e * e) * m * u * u;
+        impact_virial_ += ((1 + e) * m * u * R) * (n * n.transpose());
+      }
       // The lower id's term first: a fused multiply-add rounds the other product, so a fixed
       // order is what makes the two sides' results exact negatives of each other.
       if (fric) vrel -= (ID[i] < ID[j] ? ai * W[i] + A[j] * W[j] : A[j] * W[j] + ai * W[i]).cross(n);
@@ -120,6 +135,7 @@ void ContactForces::force(Simulation& sim) {
       double shift = 0;
       const Vec3 f = law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift);
       fsum += f;
+      if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
       // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
       if (shift != 0) dsum += (-(m / mi) * shift) * n;
       if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
@@ -153,6 +169,7 @@ void ContactForces::force(Simulation& sim) {
     if (exact && !dsum.isZero(0)) shifts_.add(i, dsum);
   }
   contacts_ = contacts;
+  boundary_work_ += boundary_work;
   overlap_sum_ = overlap_sum;
   collisions_ += onsets;
   max_overlap_ = worst;
@@ -259,13 +276,15 @@ void ContactForces::post_rebuild(Simulation& sim) {
       const std::uint32_t j = nl.partner[k];
       const double R = p.radius[i] + p.radius[j];
       const Vec3 d = p.x[i] - p.x[j];
-      touching_[k] = d.squaredNorm() < R * R;
-      // The exact scheme needs to know which pairs touched a step ago (to correct their exit):
-      // from the state, delta + v_n dt > 0. Rebuilds happen at the same steps on any number
-      // of ranks and at every snapshot, so this keeps runs rank-independent and restart-exact.
-      if (!touching_[k] && law_.exact()) {
+      // The exact scheme needs to know which pairs touched a step ago (to correct their exit,
+      // and so that a contact that began in this step is still counted as a collision): from
+      // the state, delta + v_n dt > 0. Rebuilds happen at the same steps on any number of ranks
+      // and at every snapshot, so this keeps runs rank-independent and restart-exact.
+      if (law_.exact()) {
         const double r = d.norm();
-        if (R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0) touching_[k] = 1;
+        touching_[k] = R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0;
+      } else {
+        touching_[k] = d.squaredNorm() < R * R;
       }
     }
   if (!law_.friction()) return;

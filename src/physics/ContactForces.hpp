@@ -21,6 +21,9 @@ class ContactForces : public Module {
   void final_integrate(Simulation& sim) override;
 
   void force(Simulation& sim) override;
+  // Work done on this rank's particles through contacts with images across a Lees-Edwards
+  // boundary (see force()); with HaloExchange::shear_energy, the shear's whole work.
+  double energy_input() const override { return boundary_work_; }
   void pre_rebuild(Simulation& sim) override;
   // Tangential springs as (owner id, partner id, xi) for every owned contact with history.
   void springs(const Simulation& sim, std::vector<HistoryEntry>& out) const;
@@ -38,6 +41,21 @@ class ContactForces : public Module {
   double overlap_sum() const { return overlap_sum_; }        // sum of delta / min(a_i, a_j) over contacts
   // New contacts (collisions) since the last call, each pair counted once across all ranks.
   long take_collisions() { const long c = collisions_; collisions_ = 0; return c; }
+  // Since the last call, over the collisions counted above, from each impact's normal speed u
+  // (this rank's share): the energy a free binary collision dissipates, sum (1 - e^2) m u^2 / 2
+  // (exact for frictionless binary collisions under the exact scheme), and the hard-sphere
+  // collisional virial sum J r^T with J = (1 + e) m u n, r = (a_i + a_j) n (the collisional
+  // stress is its rate over the volume). Frictionless contacts only: friction dissipates more.
+  struct Impacts {
+    double loss;
+    Eigen::Matrix3d virial;
+  };
+  Impacts take_impacts() {
+    const Impacts out{impact_loss_, impact_virial_};
+    impact_loss_ = 0;
+    impact_virial_.setZero();
+    return out;
+  }
 
  private:
   // Per list entry of an owned pair: the partner's entry for the same pair (kNoMirror when
@@ -58,6 +76,9 @@ class ContactForces : public Module {
   PendingShifts shifts_;  // exact scheme: moves of this step
   double overlap_sum_ = 0;
   long collisions_ = 0;
+  double impact_loss_ = 0;
+  double boundary_work_ = 0;
+  Eigen::Matrix3d impact_virial_ = Eigen::Matrix3d::Zero();
   long contacts_ = 0;
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;

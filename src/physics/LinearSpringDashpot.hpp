@@ -91,6 +91,7 @@ struct PairLaw {
   double kt_ratio, gammat_ratio, mu_s, mu_d;
   // "exact" scheme: the discrete constants and the oscillator (see the top of this file)
   double k_eff, gamma_eff, eta, omega, cos_w, sin_w, exp_eta;  // cos/sin(omega dt), exp(eta dt)
+  double e;  // the pair's restitution
 };
 
 // The normal part of one evaluation: force along n (repulsive > 0), the overlap the pair is to
@@ -135,7 +136,7 @@ class LinearSpringDashpot {
         const double gamma_eff = -std::expm1(-2 * eta * dt) / dt;
         table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, q.kt_ratio, q.gammat_ratio, q.mu_s, q.mu_d,
                               k_eff, gamma_eff, eta, omega, std::cos(omega * dt), std::sin(omega * dt),
-                              std::exp(eta * dt)};
+                              std::exp(eta * dt), q.e};
       }
   }
 
