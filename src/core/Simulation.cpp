@@ -98,7 +98,17 @@ void Simulation::rebuild() {
   }
   {
     auto t = timers.scope(StageTimers::Comm);
+    // Wrapping a particle across a Lees-Edwards boundary changes its potential energy in the
+    // frame (the tide at y and y -+ L_y differ once it overshot the boundary): part of the
+    // shear's work for the energy bookkeeping (HaloExchange counts the velocity jumps).
+    auto potential = [&] {
+      double u = 0;
+      for (const auto& m : modules) u += m->potential_energy(*this);
+      return u;
+    };
+    const double before = domain.shear.enabled ? potential() : 0.0;
     halo.migrate(particles, history);
+    if (domain.shear.enabled) halo.shear_energy += potential() - before;
   }
   {
     auto t = timers.scope(StageTimers::Neighbour);

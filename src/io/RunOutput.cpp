@@ -237,13 +237,16 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   const double mine = wall > 0 ? double(sim.particles.nlocal) * steps / wall : 0.0;
   std::vector<double> rates(sim.domain.nranks);
   MPI_Gather(&mine, 1, MPI_DOUBLE, rates.data(), 1, MPI_DOUBLE, 0, comm_);
-  // Stage times: min, mean and max over ranks (the spread is the load imbalance per stage).
-  constexpr int ns = StageTimers::kStages + 1;  // + "other": the rest of the wall time
+  // Stage times: min, mean and max over ranks (the spread is the load imbalance per stage);
+  // "other" is the rest of rank 0's wall time (the one summary.json reports) on each rank.
+  double wall0 = wall;
+  MPI_Bcast(&wall0, 1, MPI_DOUBLE, 0, comm_);
+  constexpr int ns = StageTimers::kStages + 1;
   std::array<double, ns> t{};
   for (int k = 0; k < StageTimers::kStages; ++k) t[k] = sim.timers.seconds[k];
   double staged = 0;
   for (int k = 0; k < StageTimers::kStages; ++k) staged += t[k];
-  t[ns - 1] = std::max(0.0, wall - staged);
+  t[ns - 1] = std::max(0.0, wall0 - staged);
   std::array<double, ns> tmin{}, tmax{}, tsum{};
   MPI_Reduce(t.data(), tmin.data(), ns, MPI_DOUBLE, MPI_MIN, 0, comm_);
   MPI_Reduce(t.data(), tmax.data(), ns, MPI_DOUBLE, MPI_MAX, 0, comm_);
