@@ -58,9 +58,13 @@ int main(int argc, char** argv) {
     std::string file = case_path;
     if (fs::is_directory(case_path)) file = (fs::path(case_path) / "case.toml").string();
     CaseFile cf = CaseFile::load(file, overrides);
-    const Config cfg = read_config(cf);
+    Config cfg = read_config(cf);
     if (ensemble > 0 && !restart.empty()) throw ConfigError("--ensemble and --restart cannot be combined");
     if (!restart.empty()) check_restart_case(restart, cf);  // before anything is created
+    // A snapshot made before contact.scheme existed ran Verlet, then the only scheme: a
+    // restart continues the system it was, whatever today's default.
+    const bool legacy_scheme = !restart.empty() && snapshot_parameter(restart, "contact_scheme").empty();
+    if (legacy_scheme) cfg.exact_contacts = false;
     if (out_dir.empty()) out_dir = "runs/" + fs::path(file).parent_path().filename().string();
     out_ptr = std::make_unique<RunOutput>(out_dir, force, MPI_COMM_WORLD, std::vector<std::string>{file, restart});
     RunOutput& out = *out_ptr;
@@ -92,6 +96,9 @@ int main(int argc, char** argv) {
     if (!restart.empty()) read_snapshot(sim, restart);
     sim.setup();
     if (!restart.empty()) out.log("restarted from " + restart + " at step " + std::to_string(sim.step_count));
+    if (legacy_scheme)
+      out.log("contact.scheme: " + restart + " predates the exact contact scheme; continuing with \"verlet\", "
+              "the scheme it was made with");
     std::ostringstream head;
     head << "cassini: " << file << " on " << nranks << " rank(s), " << sim.total_particles() << " particles, dt = "
          << sim.dt << " s, end = " << cfg.t_end << " s\nactive modules:";

@@ -103,6 +103,17 @@ rc, out, _ = run(["gas", "--restart", snap, "--out", "r2", "--set", "time.end=3e
 check("restart with a new end time and guards runs", rc == 0, out)
 run_id = summary(f"{work}/r1")["run_id"]
 check("a continuation keeps the run id", summary(f"{work}/r2")["run_id"] == run_id and run_id, str(run_id))
+# A snapshot from before contact.scheme existed (no contact_scheme attribute) continues with the
+# scheme it was made with, Verlet, and says so; a current one continues with its own.
+with h5py.File(f"{work}/{snap}", "r") as f:
+    scheme_attr = f["parameters"].attrs.get("contact_scheme")
+check("a snapshot records its contact scheme", scheme_attr in (b"exact", "exact"), str(scheme_attr))
+shutil.copy(f"{work}/{snap}", f"{work}/legacy.h5md")
+with h5py.File(f"{work}/legacy.h5md", "a") as f:
+    del f["parameters"].attrs["contact_scheme"]
+rc, out, _ = run(["gas", "--restart", "legacy.h5md", "--out", "r_legacy", "--set", "time.end=3e-5"])
+check("a snapshot older than contact.scheme continues with Verlet, and says so",
+      rc == 0 and 'continuing with "verlet"' in open(f"{work}/r_legacy/run.log").read(), out)
 
 # ---- 3. every stop is explained; summary.json is always valid JSON
 s = summary(f"{work}/r1")

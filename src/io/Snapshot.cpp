@@ -306,6 +306,8 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       Handle params(H5Gopen2(file, "parameters", H5P_DEFAULT), H5Gclose, "group parameters");
       attr_string(params, "case", case_text);
       if (!run_id.empty()) attr_string(params, "run_id", run_id);
+      // The contact scheme in force (the case may leave it to the default, which has changed).
+      attr_string(params, "contact_scheme", sim.cfg.exact_contacts ? "exact" : "verlet");
       attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
       const double state[3] = {time, dom.shear.offset, sim.dt};
       small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, state, dxpl);
