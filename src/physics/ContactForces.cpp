@@ -64,7 +64,13 @@ void ContactForces::force(Simulation& sim) {
         if (!T[k]) continue;
         const MirrorResult& r = OUT[k];
         fsum += r.f;
-        if (exact) dsum += r.shift;
+        if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
+          const Vec3 d = xi - X[j];
+          const Vec3 n = d / std::sqrt(d.squaredNorm());
+          const double mj = M[j];
+          const double m = mi * mj / (mi + mj);
+          dsum += (-(m / mi) * r.shift) * n;
+        }
         if (T[k] == kParted) {  // the exact scheme's exit step: a force, not a contact
           T[k] = 0;
           continue;
@@ -102,7 +108,7 @@ void ContactForces::force(Simulation& sim) {
               if (mk != kNoMirror) {
                 T[mk] = kParted;
                 OUT[mk].f = -f;
-                OUT[mk].shift = (-(m / mj) * ns.shift) * (-n);
+                OUT[mk].shift = ns.shift;
               }
             }
           }
@@ -147,7 +153,7 @@ void ContactForces::force(Simulation& sim) {
         T[mk] = 1;
         MirrorResult& out = OUT[mk];
         out.frac = frac;
-        out.shift = shift != 0 ? Vec3((-(m / mj) * shift) * (-n)) : Vec3::Zero();
+        out.shift = shift;
         if (!fric) {
           out.f = -f;
         } else {

@@ -62,8 +62,9 @@ class ContactForces : public Module {
   // the partner is a ghost), and the partner-side result written when the pair is evaluated.
   static constexpr std::uint32_t kNoMirror = 0xffffffffu;
   struct MirrorResult {
-    Vec3 f, torque, shift;
+    Vec3 f, torque;
     double frac;
+    double shift;  // the exact scheme's overlap shift (0 but at onset and exit steps)
   };
   static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, result in mirrored_
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
