@@ -79,9 +79,13 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.mean_velocity = positive(f, "flow.mean_velocity");
   ch.viscosity = positive(f, "flow.viscosity", 1.8e-3);
   ch.fluid_density = positive(f, "flow.density", 1050.0);
-  ch.resolution = static_cast<int>(f.integer("flow.resolution", 10));
+  ch.resolution = static_cast<int>(f.integer("flow.resolution", 16));
   if (ch.resolution < 2 || ch.resolution % 2) f.fail("flow.resolution", "an even number of cells per neck width, >= 2");
   ch.solve_half_length = positive(f, "flow.solve_half_length", 5 * D);
+  const std::string walls = f.string("flow.walls", "embedded");
+  ch.embedded_walls = walls == "embedded";
+  if (walls != "embedded" && walls != "staircase")
+    f.fail("flow.walls", "\"embedded\" (default: walls at their true position) or \"staircase\" (walls on cell faces)");
   ch.series_terms = static_cast<int>(f.integer("flow.series_terms", 40));
   if (ch.series_terms < 1) f.fail("flow.series_terms", "a positive number of odd terms");
   ch.cache_dir = f.string("flow.cache", "flow-cache");

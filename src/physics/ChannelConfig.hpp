@@ -24,8 +24,9 @@ struct ChannelConfig {
   double mean_velocity = 0;   // far-field mean velocity (m/s)
   double viscosity = 1.8e-3;  // Pa s
   double fluid_density = 1050;
-  int resolution = 10;          // Stokes grid cells per neck width
+  int resolution = 16;          // Stokes grid cells per neck width
   double solve_half_length = 0; // Stokes solve over |x| < this; the duct series beyond
+  bool embedded_walls = true;   // flow.walls: angled walls at their true position, not staircased
   int series_terms = 40;        // odd terms of the duct series
   std::string cache_dir;        // where flow_<hash>.h5 goes
 

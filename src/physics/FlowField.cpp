@@ -21,6 +21,35 @@ namespace {
 using h5::Handle;
 using h5::check;
 
+// Nearest point of the side walls (the two polylines, continued straight beyond their ends)
+// to a point in the xy plane, with the unit normal from the wall towards the point's side.
+struct WallPoint { double distance, x, y, nx, ny; };
+class WallDistance {
+ public:
+  explicit WallDistance(const ChannelConfig& ch) {
+    for (const auto* line : {&ch.upper, &ch.lower}) {
+      const double side = line == &ch.upper ? -1 : 1;  // the fluid lies below the upper wall
+      std::vector<Point2> p = *line;
+      p.insert(p.begin(), Point2{p.front()[0] - 1.0, p.front()[1]});  // 1 m: beyond any channel
+      p.push_back(Point2{p.back()[0] + 1.0, p.back()[1]});
+      for (std::size_t k = 0; k + 1 < p.size(); ++k) segments_.push_back({p[k], p[k + 1], side});
+    }
+  }
+  WallPoint nearest(double x, double y) const {
+    WallPoint best{1e300, 0, 0, 0, 0};
+    for (const auto& [a, b, side] : segments_) {
+      const double tx = b[0] - a[0], ty = b[1] - a[1], len = std::hypot(tx, ty);
+      const double t = std::clamp(((x - a[0]) * tx + (y - a[1]) * ty) / (len * len), 0.0, 1.0);
+      const double px = a[0] + t * tx, py = a[1] + t * ty, dist = std::hypot(x - px, y - py);
+      if (dist < best.distance) best = {dist, px, py, -side * ty / len, side * tx / len};
+    }
+    return best;
+  }
+ private:
+  struct Segment { Point2 a, b; double side; };
+  std::vector<Segment> segments_;
+};
+
 // The solve region's grid, derived from the case: cubic cells of D / resolution, aligned so
 // that the neck's ends and the channel's side and floor lie on cell faces.
 struct SolveBox {
@@ -51,8 +80,9 @@ SolveBox solve_box(const Config& cfg) {
 std::string cache_key(const Config& cfg, const SolveBox& b) {
   std::ostringstream os;
   os.precision(17);
-  os << "stokes-v1 dx=" << b.dx << " x0=" << b.x0 << " y0=" << b.y0 << " z0=" << b.z0 << " n=" << b.nx << "," << b.ny
-     << "," << b.nz << " v=" << cfg.channel.mean_velocity << " terms=" << cfg.channel.series_terms << " upper=";
+  os << "stokes-v2 dx=" << b.dx << " x0=" << b.x0 << " y0=" << b.y0 << " z0=" << b.z0 << " n=" << b.nx << "," << b.ny
+     << "," << b.nz << " v=" << cfg.channel.mean_velocity << " terms=" << cfg.channel.series_terms
+     << " walls=" << (cfg.channel.embedded_walls ? "embedded" : "staircase") << " upper=";
   for (const auto& p : cfg.channel.upper) os << p[0] << ":" << p[1] << ";";
   os << " lower=";
   for (const auto& p : cfg.channel.lower) os << p[0] << ":" << p[1] << ";";
@@ -70,10 +100,16 @@ Solved compute(const Config& cfg, const SolveBox& b) {
   StokesGrid g;
   g.nx = b.nx; g.ny = b.ny; g.nz = b.nz; g.dx = b.dx;
   g.viscosity = ch.viscosity;
+  // A point is fluid when it is inside by more than rounding: points on a wall (the 45 degree
+  // walls pass through cell centres and corners) are wall on both sides of the axis, whatever
+  // the last bit of their coordinates, so the grid and the field stay mirror-symmetric.
+  const WallDistance walls(ch);
+  auto fluid_xy = [&](double x, double y) { return geo.inside(x, y) && walls.nearest(x, y).distance > 1e-9 * b.dx; };
+  if (ch.embedded_walls) g.fluid_at = [&](double X, double Y) { return fluid_xy(b.x0 + X * b.dx, b.y0 + Y * b.dx); };
   g.fluid.assign(std::size_t(b.nx) * b.ny * b.nz, 0);
   for (int i = 0; i < b.nx; ++i)
     for (int j = 0; j < b.ny; ++j) {
-      const bool in = geo.inside(b.x0 + (i + 0.5) * b.dx, b.y0 + (j + 0.5) * b.dx);
+      const bool in = fluid_xy(b.x0 + (i + 0.5) * b.dx, b.y0 + (j + 0.5) * b.dx);
       for (int k = 0; k < b.nz; ++k) g.fluid[(std::size_t(i) * b.ny + j) * b.nz + k] = in;
     }
   std::vector<char> first(g.fluid.begin(), g.fluid.begin() + b.ny * b.nz);
@@ -125,10 +161,43 @@ Solved compute(const Config& cfg, const SolveBox& b) {
     }
   r.far_field_error = std::sqrt(e2 / n2);
 
-  // Node values: zero on walls (any neighbouring cell solid), else the mean of the four faces
-  // of each component around the node.
+  // Node values. Interior nodes (all eight cells around them fluid): each component
+  // interpolated from its faces to the node, along each of the two directions across it, with
+  // the fourth-order midpoint rule (-1, 9, 9, -1)/16; at the floor, the ceiling and any wall on
+  // a cell face the faces beyond are mirrored (u = 0 on the wall); where an angled wall cuts the
+  // stencil, the two-point mean. (The two-point mean everywhere, as before, put the nodes 1.5 %
+  // (x) per direction below the faces at 10 cells per D: the sampled flow rate fell 6.5 % short
+  // in the neck.) Nodes on the floor and ceiling: zero. Nodes next to a side wall, on either
+  // side of it: the velocity that vanishes linearly at the wall, taken from the interior at
+  // L = 2.5 cells along the wall normal, u(p) = u(foot + L n) s / L with s the signed distance
+  // from the wall (negative behind it: a ghost value, so that interpolating between the nodes
+  // puts the zero on the wall itself, not on the staircase).
   const std::size_t nn = std::size_t(nx + 1) * (ny + 1) * (nz + 1);
   out.u.assign(nn, 0.0); out.v.assign(nn, 0.0); out.w.assign(nn, 0.0);
+  std::vector<char> interior(nn, 0);
+  auto node = [&](int i, int j, int k) { return (std::size_t(i) * (ny + 1) + j) * (nz + 1) + k; };
+  // Faces (cell rows) and weights across one direction, for the node between rows c - 1 and c:
+  // rows c - 2 .. c + 1; a row is `open` when its face is fluid, `flat_wall(r, toward)` when a
+  // wall lies on the face between solid row r and its neighbour toward the node.
+  struct Stencil { int row[4]; double w[4]; };
+  auto stencil = [](int c, int n, const std::function<bool(int)>& open, const std::function<bool(int, int)>& flat_wall,
+                    bool mirror_outside) {
+    Stencil st{{c - 2, c - 1, c, c + 1}, {-1.0 / 16, 9.0 / 16, 9.0 / 16, -1.0 / 16}};
+    for (int e : {0, 3}) {
+      const int r = st.row[e], inner = e == 0 ? c - 1 : c;
+      if (r >= 0 && r < n && open(r)) continue;
+      const bool outside = r < 0 || r >= n;
+      if ((outside && mirror_outside) || (!outside && flat_wall(r, inner))) { st.row[e] = inner; st.w[e] = 1.0 / 16; }
+      else return Stencil{{c - 1, c - 1, c, c}, {0, 0.5, 0.5, 0}};  // the two-point mean
+    }
+    return st;
+  };
+  auto x_of = [&](int i) { return b.x0 + i * b.dx; };
+  auto y_of = [&](int j) { return b.y0 + j * b.dx; };
+  // A wall on the y face between rows r and inner at x: the wall passes through that face's line.
+  auto flat_y = [&](double x, int r, int inner) {
+    return walls.nearest(x, y_of(std::max(r, inner))).distance < 1e-9 * b.dx;
+  };
   for (int i = 0; i <= nx; ++i)
     for (int j = 0; j <= ny; ++j)
       for (int k = 0; k <= nz; ++k) {
@@ -140,17 +209,65 @@ Solved compute(const Config& cfg, const SolveBox& b) {
               if (!fluid(ii, j + dj, k + dk)) wall = true;
             }
         if (wall) continue;
-        const std::size_t n = (std::size_t(i) * (ny + 1) + j) * (nz + 1) + k;
-        out.u[n] = 0.25 * (U(i, j - 1, k - 1) + U(i, j, k - 1) + U(i, j - 1, k) + U(i, j, k));
-        double sv = 0, sw = 0;
-        for (int di = -1; di <= 0; ++di) {
-          if (i + di < 0 || i + di >= nx) continue;  // v = w = 0 in the straight duct beyond
-          sv += V(i + di, j, k - 1) + V(i + di, j, k);
-          sw += Wf(i + di, j - 1, k) + Wf(i + di, j, k);
+        const std::size_t n = node(i, j, k);
+        interior[n] = 1;
+        const int ia = std::clamp(i - 1, 0, nx - 1), ib = std::clamp(i, 0, nx - 1);
+        const Stencil sz = stencil(k, nz, [](int) { return true; }, [](int, int) { return true; }, true);
+        // u: across y and z.
+        const Stencil suy = stencil(j, ny, [&](int r) { return fluid(ia, r, k) && fluid(ib, r, k); },
+                                    [&](int r, int inner) { return flat_y(x_of(i), r, inner); }, true);
+        double u = 0;
+        for (int p = 0; p < 4; ++p)
+          for (int q = 0; q < 4; ++q) u += suy.w[p] * sz.w[q] * U(i, suy.row[p], sz.row[q]);
+        out.u[n] = u;
+        // v: across x and z; w: across x and y. Beyond the solve region's ends v = w = 0.
+        const Stencil sx = stencil(i, nx, [&](int r) { return fluid(r, j - 1, k) && fluid(r, j, k); },
+                                   [](int, int) { return false; }, false);
+        double v = 0, wz = 0;
+        for (int p = 0; p < 4; ++p) {
+          if (sx.row[p] < 0 || sx.row[p] >= nx) continue;
+          for (int q = 0; q < 4; ++q) v += sx.w[p] * sz.w[q] * V(sx.row[p], j, sz.row[q]);
+          const int r = sx.row[p];
+          const Stencil swy = stencil(j, ny, [&](int jr) { return fluid(r, jr, k); },
+                                      [&](int jr, int inner) { return flat_y(x_of(r) + 0.5 * b.dx, jr, inner); }, true);
+          for (int q = 0; q < 4; ++q) wz += sx.w[p] * swy.w[q] * Wf(r, swy.row[q], k);
         }
-        out.v[n] = 0.25 * sv;
-        out.w[n] = 0.25 * sw;
+        out.v[n] = v;
+        out.w[n] = wz;
       }
+  for (int i = 0; i <= (ch.embedded_walls ? nx : -1); ++i)
+    for (int j = 0; j <= ny; ++j) {
+      const double x = b.x0 + i * b.dx, y = b.y0 + j * b.dx;
+      const WallPoint w = walls.nearest(x, y);
+      const double s = geo.inside(x, y) ? w.distance : -w.distance;
+      if (w.distance > 1.5 * b.dx) continue;
+      double nxw = w.nx, nyw = w.ny;  // unit normal into the fluid: radial from the foot, or the face's
+      if (w.distance > 1e-9 * b.dx) { nxw = (x - w.x) / s; nyw = (y - w.y) / s; }
+      // Bilinear weights of the point L along the normal, if its four nodes are interior.
+      for (double L : {2.5 * b.dx, 3.5 * b.dx}) {
+        const double X = (w.x + L * nxw - b.x0) / b.dx, Y = (w.y + L * nyw - b.y0) / b.dx;
+        const int ci = static_cast<int>(std::floor(X)), cj = static_cast<int>(std::floor(Y));
+        if (ci < 0 || ci >= nx || cj < 0 || cj >= ny) continue;
+        const double fx = X - ci, fy = Y - cj;
+        const double wt[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+        const int at[4][2] = {{ci, cj}, {ci + 1, cj}, {ci, cj + 1}, {ci + 1, cj + 1}};
+        bool ok = true;
+        for (int k = 1; k < nz && ok; ++k)
+          for (const auto& q : at) ok = ok && interior[node(q[0], q[1], k)];
+        if (!ok) continue;
+        for (int k = 1; k < nz; ++k) {
+          const std::size_t n = node(i, j, k);
+          if (interior[n] && s > 0) break;  // inside the fluid's staircase: the faces are better
+          double u = 0, v = 0, wz = 0;
+          for (int c = 0; c < 4; ++c) {
+            const std::size_t m = node(at[c][0], at[c][1], k);
+            u += wt[c] * out.u[m]; v += wt[c] * out.v[m]; wz += wt[c] * out.w[m];
+          }
+          out.u[n] = u * s / L; out.v[n] = v * s / L; out.w[n] = wz * s / L;
+        }
+        break;
+      }
+    }
   // Far-field centre-line over mean, from the node on the centre line 4 D upstream.
   const std::size_t centre = (std::size_t(ifar) * (ny + 1) + ny / 2) * (nz + 1) + nz / 2;
   r.centre_over_mean = out.u[centre] / ch.mean_velocity;

@@ -4,6 +4,13 @@
 // both stored on one grid of nodes spaced D / flow.resolution and sampled by trilinear
 // interpolation. The solve runs once per geometry and resolution and is cached as HDF5 in
 // flow.cache (flow_<hash>.h5): a later run with the same geometry reads it in milliseconds.
+//
+// Accuracy where clogs form (tests/test_channel.cpp, docs/clogging.md): the angled walls are
+// seen at their true position by the solve (flow.walls = "embedded") and by the node values
+// (ghost values behind them), the nodes take the faces' values to fourth order, so the sampled
+// field converges at second order at bead positions in the neck, at the neck's edges and in
+// the far field. The edges themselves are re-entrant corners where Stokes flow is singular
+// (u ~ r^0.52); their immediate vicinity (closer than a bead radius) converges more slowly.
 #include <string>
 
 #include <mpi.h>

@@ -1,9 +1,11 @@
 #include "physics/StokesSolver.hpp"
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
@@ -23,6 +25,30 @@ struct Component {
   int count = 0;
   int index(int i, int j, int k) const { return (i * n[1] + j) * n[2] + k; }
 };
+
+// Position of face (i, j, k) of component a, in cell units from the box's low corner.
+std::array<double, 3> face_centre(int a, int i, int j, int k) {
+  std::array<double, 3> p = {i + 0.5, j + 0.5, k + 0.5};
+  p[a] -= 0.5;
+  return p;
+}
+
+// Distance in cells from p along direction d (0: x, 1: y) with sign s to the first wall
+// point, if one lies within `reach` cells (scan at 1/16 cell, then bisection); else -1.
+double wall_distance(const std::function<bool(double, double)>& fluid_at, const std::array<double, 3>& p, int d, int s,
+                     double reach) {
+  auto fluid = [&](double t) {
+    return fluid_at(p[0] + (d == 0 ? s * t : 0.0), p[1] + (d == 1 ? s * t : 0.0));
+  };
+  const double h = 1.0 / 16;
+  for (double t = h; t <= reach + 1e-12; t += h) {
+    if (fluid(t)) continue;
+    double lo = t - h, hi = t;
+    for (int it = 0; it < 40; ++it) (fluid(0.5 * (lo + hi)) ? lo : hi) = 0.5 * (lo + hi);
+    return 0.5 * (lo + hi);
+  }
+  return -1;
+}
 
 }  // namespace
 
@@ -83,7 +109,8 @@ StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_itera
           if (a == 0 && (i == 0 || i == nx)) {  // inflow / outflow
             if (below || above) c.known[c.index(i, j, k)] = g.inflow[j * nz + k];
           } else if (below && above) {
-            c.unknown[c.index(i, j, k)] = c.count++;
+            const auto p = face_centre(a, i, j, k);
+            if (!g.fluid_at || g.fluid_at(p[0], p[1])) c.unknown[c.index(i, j, k)] = c.count++;
           }
         }
   }
@@ -108,7 +135,11 @@ StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_itera
               q[d] += s;
               const bool in = q[d] >= 0 && q[d] < c.n[d];
               const int nb = in ? c.unknown[c.index(q[0], q[1], q[2])] : -1;
+              const bool inflow = a == 0 && d == 0 && in && (q[0] == 0 || q[0] == nx);
+              double theta = -1;  // the wall's true distance in cells, where it cuts the cells
+              if (nb < 0 && !inflow && d < 2 && g.fluid_at) theta = wall_distance(g.fluid_at, face_centre(a, i, j, k), d, s, 2.0);
               if (nb >= 0) { diag += 1; t.emplace_back(r, nb, -scale); }
+              else if (theta > 0) diag += 1 / std::max(theta, 1e-3);  // no-slip at the wall itself
               else if (d == a) { diag += 1; b[a][r] += scale * (in ? c.known[c.index(q[0], q[1], q[2])] : 0.0); }
               else diag += 2;  // tangential neighbour behind a wall: no-slip half a cell away
             }
@@ -145,7 +176,7 @@ StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_itera
     Dm[a].setFromTriplets(t.begin(), t.end());
   }
 
-  Eigen::SimplicialLLT<SpMat> chol[3];
+  Eigen::CholmodSupernodalLLT<SpMat> chol[3];
   for (int a = 0; a < 3; ++a) {
     chol[a].compute(A[a]);
     if (chol[a].info() != Eigen::Success) throw std::runtime_error("Stokes solve: velocity Laplacian not positive definite");

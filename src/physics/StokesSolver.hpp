@@ -5,10 +5,18 @@
 // y and z faces; at the x faces the inflow and outflow velocity is prescribed (the same
 // profile at both ends, so the flow rate balances exactly).
 //
+// Side walls that cut through cells (fluid_at set): cells are still fluid or solid by their
+// centre, but each velocity unknown next to a wall sees it at its true distance theta dx along
+// x or y, not on the staircase of cell faces: the wall term of the Laplacian becomes
+// u / (theta dx^2) (the symmetric embedded-boundary discretisation of Gibou et al., J. Comput.
+// Phys. 176, 2002: O(1) local truncation error in that one row, second-order solution), so A
+// stays symmetric positive definite. Faces whose centre lies in a wall are held at zero.
+//
 // Solution: the pressure Schur complement S = D A^-1 D^T is solved by conjugate gradients,
 // with the three velocity Laplacians A factorised once (sparse Cholesky). S is well
 // conditioned on MAC grids (its condition number does not grow with resolution), so CG
 // needs tens of iterations; each costs six triangular solves.
+#include <functional>
 #include <vector>
 
 namespace cassini {
@@ -19,6 +27,9 @@ struct StokesGrid {
   std::vector<char> fluid;     // nx*ny*nz, index (i*ny + j)*nz + k
   std::vector<double> inflow;  // ny*nz: u on the x faces at both ends (0 where solid)
   double viscosity = 1;
+  // Optional: is the point (X, Y), in cell units from the box's low corner, fluid? (Walls
+  // extruded over z; the box's own faces stay walls.) Empty: the staircase of cells is the wall.
+  std::function<bool(double, double)> fluid_at;
 };
 
 struct StokesSolution {
