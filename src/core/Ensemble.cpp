@@ -33,7 +33,8 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
   if (base.has_module("drag")) FlowField warm(base, MPI_COMM_WORLD);
 
   const std::string header =
-      "run,seed,D_over_d,clogged,escapees,clog_time,simulated_time,inserted,max_overlap_over_radius,wall_seconds,ended";
+      "run,seed,D_over_d,clogged,escapees,clog_time,simulated_time,inserted,max_overlap_over_radius,wall_seconds,"
+      "front_time,escapees_after_front,avalanches,avalanche_starts,ended";
   const std::string part = out.dir() + "/ensemble.rank" + std::to_string(rank) + ".csv";
   std::ofstream rows(part);
   rows << header << "\n";
@@ -63,9 +64,16 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
     const long inserted = inlet ? inlet->inserted() : 0;
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
     std::string ct = result(sim, "clog_time");
+    auto field = [&](const std::string& key) {  // JSON null -> empty; a list -> space-separated
+      std::string v = result(sim, key);
+      if (v == "null") return std::string();
+      v.erase(std::remove_if(v.begin(), v.end(), [](char c) { return c == '[' || c == ']' || c == ','; }), v.end());
+      return v;
+    };
     rows << k << "," << cfg.seed << "," << cfg.channel.neck_width / d << "," << (result(sim, "clogged") == "true" ? 1 : 0)
          << "," << result(sim, "escapees") << "," << (ct == "null" ? "" : ct) << "," << sim.time << "," << inserted << ","
-         << worst << "," << wall << "," << ended << "\n";
+         << worst << "," << wall << "," << field("front_time") << "," << field("escapees_after_front") << ","
+         << field("avalanches") << "," << field("avalanche_starts") << "," << ended << "\n";
     rows.flush();
     ++done;
     if (rank == 0) {

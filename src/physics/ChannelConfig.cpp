@@ -120,6 +120,14 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.rest_speed = f.number("clog.rest_speed", 1e-6 * ch.mean_velocity);
   if (!(ch.rest_speed >= 0)) f.fail("clog.rest_speed", "a speed >= 0 (0 turns the early end at rest off)");
   if (ch.pass_x < ch.neck_x1 || ch.pass_x >= c.hi[0]) f.fail("clog.pass_x", "an x between the neck's exit and the domain's end");
+  const std::string mode = f.string("clog.mode", "single");
+  if (mode != "single" && mode != "continuous")
+    f.fail("clog.mode", "\"single\" (default: the run ends at the first clog) or \"continuous\" (the arch is removed and the flow goes on)");
+  ch.continuous = mode == "continuous";
+  ch.avalanches = static_cast<int>(f.integer("clog.avalanches", 10));
+  if (ch.avalanches < 1) f.fail("clog.avalanches", "a number of clogs >= 1");
+  ch.front_fraction = f.number("clog.front_fraction", 0.5);
+  if (!(ch.front_fraction > 0 && ch.front_fraction <= 1)) f.fail("clog.front_fraction", "a fraction in (0, 1]");
 }
 
 }  // namespace cassini

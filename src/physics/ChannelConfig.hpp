@@ -48,6 +48,9 @@ struct ChannelConfig {
   double clog_window = 1.0;     // no passage and no change at the neck for this long = clogged
   double pass_x = 0;            // a particle has escaped once its centre is beyond this x
   double rest_speed = 0;        // every particle slower than this (and the inlet full) = at rest
+  bool continuous = false;      // clog.mode = "continuous": clear the arch after each clog and go on
+  int avalanches = 10;          // continuous mode: end after this many clogs
+  double front_fraction = 0.5;  // the front has passed once the approach holds this x inlet_fraction
 };
 
 // Reads the channel tables into cfg.channel (only for scenes with the "channel" module).

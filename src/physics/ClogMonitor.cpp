@@ -1,8 +1,11 @@
 #include "physics/ClogMonitor.hpp"
 
 #include <cmath>
+#include <numbers>
+#include <sstream>
 
 #include "core/Simulation.hpp"
+#include "physics/ChannelGeometry.hpp"
 #include "physics/Inlet.hpp"
 
 namespace cassini {
@@ -11,11 +14,45 @@ void ClogMonitor::setup(Simulation& sim) {
   every_ = std::max(1L, std::lround(cfg_.channel.clog_window / 1000 / sim.dt));
   last_change_ = sim.time;
   inlet_ = sim.find<Inlet>();
+  const ChannelConfig& ch = cfg_.channel;
+  const ChannelGeometry geo(ch);
+  zone_lo_ = ch.neck_x0 - 3 * ch.neck_width;
+  zone_hi_ = ch.neck_x0 - ch.neck_width;
+  const int n = 200;  // midpoint rule over the channel's width (walls are straight pieces)
+  for (int k = 0; k < n; ++k) {
+    const double x = zone_lo_ + (k + 0.5) * (zone_hi_ - zone_lo_) / n;
+    zone_volume_ += (geo.upper_y(x) - geo.lower_y(x)) * (zone_hi_ - zone_lo_) / n;
+  }
+  zone_volume_ *= cfg_.hi[2] - cfg_.lo[2];
+  double v;  // a restart continues where it was
+  if (sim.restart_value("clog.front_time", v)) front_time_ = v;
+  if (sim.restart_value("clog.escaped_at_front", v)) escaped_at_front_ = std::lround(v);
+  if (sim.restart_value("clog.avalanche_start", v)) avalanche_start_ = std::lround(v);
+  if (sim.restart_value("clog.resumed_at", v)) resumed_at_ = v;
+  if (sim.restart_value("clog.removed", v)) removed_ = std::lround(v);
+  if (sim.restart_value("clog.avalanches", v))
+    for (long k = 0; k < std::lround(v); ++k) {
+      double s = 0, t = 0;
+      sim.restart_value("clog.avalanche." + std::to_string(k), s);
+      sim.restart_value("clog.avalanche_start." + std::to_string(k), t);
+      sizes_.push_back(std::lround(s));
+      starts_.push_back(t);
+    }
   check(sim);
-  double v;  // a restart continues the window where it was
   if (sim.restart_value("clog.last_change", v)) last_change_ = v;
   if (sim.restart_value("clog.rest_since", v)) rest_since_ = v;
   publish(sim);
+}
+
+void ClogMonitor::save_state(std::vector<std::pair<std::string, double>>& out) const {
+  out.insert(out.end(), {{"clog.last_change", last_change_}, {"clog.rest_since", rest_since_},
+                         {"clog.front_time", front_time_}, {"clog.escaped_at_front", double(escaped_at_front_)},
+                         {"clog.avalanche_start", double(avalanche_start_)}, {"clog.resumed_at", resumed_at_},
+                         {"clog.removed", double(removed_)}, {"clog.avalanches", double(sizes_.size())}});
+  for (std::size_t k = 0; k < sizes_.size(); ++k) {
+    out.emplace_back("clog.avalanche." + std::to_string(k), double(sizes_[k]));
+    out.emplace_back("clog.avalanche_start." + std::to_string(k), starts_[k]);
+  }
 }
 
 void ClogMonitor::end_of_step(Simulation& sim) {
@@ -26,32 +63,73 @@ void ClogMonitor::check(Simulation& sim) {
   const ChannelConfig& ch = cfg_.channel;
   const ParticleStore& p = sim.particles;
   const double neck_lo = ch.neck_x0 - 2 * cfg_.max_radius();
-  long local[2] = {static_cast<long>(sim.halo.removed_upper), 0}, global[2];
+  long local[3] = {static_cast<long>(sim.halo.removed_upper), 0, 0}, global[3];
+  double zone = 0;  // solid volume in the approach zone
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const double x = p.x[i][0];
     if (x > ch.pass_x) ++local[0];
     else if (x > neck_lo) ++local[1];
+    else if (x >= zone_lo_) ++local[2];
+    if (x >= zone_lo_ && x < zone_hi_) zone += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius[i], 3);
   }
-  MPI_Allreduce(local, global, 2, MPI_LONG, MPI_SUM, sim.domain.comm);
+  MPI_Allreduce(local, global, 3, MPI_LONG, MPI_SUM, sim.domain.comm);
+  MPI_Allreduce(MPI_IN_PLACE, &zone, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  if (front_time_ < 0 && zone >= ch.front_fraction * ch.inlet_fraction * zone_volume_) {
+    front_time_ = sim.time;
+    escaped_at_front_ = global[0];
+  }
   if (global[0] != escaped_ || global[1] != in_neck_) {
     escaped_ = global[0];
     in_neck_ = global[1];
     last_change_ = sim.time;
   }
-  const bool holding = in_neck_ > 0 && sim.time > last_change_;
+  // Continuous mode: once an arch has been cleared, the pile behind it can jam again just
+  // upstream of the neck zone; beads anywhere in the approach then count as a standing clog.
+  const bool occupied = in_neck_ > 0 || (ch.continuous && !sizes_.empty() && global[2] > 0);
+  const bool holding = occupied && sim.time > last_change_;
   if (holding && ch.rest_speed > 0 && at_rest(sim)) {
     if (rest_since_ < 0) rest_since_ = sim.time;
   } else {
     rest_since_ = -1;
   }
-  clogged_ = in_neck_ > 0 && sim.time - last_change_ >= ch.clog_window;
-  if (clogged_) {
-    sim.finish("clogged: no change at the neck for " + std::to_string(ch.clog_window) + " s");
-  } else if (rest_since_ >= 0 && sim.time - rest_since_ >= 0.01 * ch.clog_window) {
-    clogged_ = true;
-    sim.finish("clogged: at rest behind the clog since t = " + std::to_string(rest_since_) + " s (a fixed point)");
-  }
+  if (occupied && sim.time - last_change_ >= ch.clog_window)
+    clog_found(sim, "clogged: no change at the neck for " + std::to_string(ch.clog_window) + " s");
+  else if (rest_since_ >= 0 && sim.time - rest_since_ >= 0.01 * ch.clog_window)
+    clog_found(sim, "clogged: at rest behind the clog since t = " + std::to_string(rest_since_) + " s (a fixed point)");
   publish(sim);
+}
+
+void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
+  clogged_ = true;
+  sizes_.push_back(escaped_ - avalanche_start_);
+  starts_.push_back(resumed_at_);
+  if (!cfg_.channel.continuous || static_cast<int>(sizes_.size()) >= cfg_.channel.avalanches) {
+    sim.finish(why + (cfg_.channel.continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
+    return;
+  }
+  // Clear the arch: the beads within a diameter of the most downstream bead that has not
+  // escaped (at the neck: the neck zone). They leave the domain upstream (removed at the next
+  // rebuild, which their displacement forces; not escapees). The clock and counts restart.
+  ParticleStore& p = sim.particles;
+  double lead = -1e300;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.x[i][0] <= cfg_.channel.pass_x) lead = std::max(lead, p.x[i][0]);
+  MPI_Allreduce(MPI_IN_PLACE, &lead, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  const double arch_lo = lead - 2 * cfg_.max_radius();
+  long gone = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.x[i][0] > arch_lo && p.x[i][0] <= cfg_.channel.pass_x) {
+      p.x[i][0] = cfg_.lo[0] - 1.0;
+      p.v[i] = Vec3::Zero();
+      ++gone;
+    }
+  MPI_Allreduce(MPI_IN_PLACE, &gone, 1, MPI_LONG, MPI_SUM, sim.domain.comm);
+  removed_ += gone;
+  clogged_ = false;
+  rest_since_ = -1;
+  in_neck_ = -1;
+  last_change_ = resumed_at_ = sim.time;
+  avalanche_start_ = escaped_;
 }
 
 bool ClogMonitor::at_rest(Simulation& sim) const {
@@ -65,6 +143,20 @@ bool ClogMonitor::at_rest(Simulation& sim) const {
 }
 
 void ClogMonitor::publish(Simulation& sim) const {
+  auto list = [](const auto& v) {
+    std::ostringstream os;
+    os.precision(10);
+    os << "[";
+    for (std::size_t k = 0; k < v.size(); ++k) os << (k ? ", " : "") << v[k];
+    return os.str() + "]";
+  };
+  sim.set_result("front_time", front_time_ >= 0 ? std::to_string(front_time_) : "null");
+  sim.set_result("escapees_after_front", front_time_ >= 0 ? std::to_string(escaped_ - escaped_at_front_) : "null");
+  if (cfg_.channel.continuous) {
+    sim.set_result("avalanches", list(sizes_));
+    sim.set_result("avalanche_starts", list(starts_));
+    sim.set_result("removed_from_neck", std::to_string(removed_));
+  }
   sim.set_result("clogged", clogged_ ? "true" : "false");
   sim.set_result("escapees", std::to_string(escaped_));
   sim.set_result("clog_time", clogged_ ? std::to_string(last_change_) : "null");

@@ -7,6 +7,18 @@
 // the neck (an empty, not yet reached neck is not a clog). Checked every window/1000.
 // Results go to summary.json (escapees s, clog time, clogged) and to the snapshots.
 //
+// Stationary statistics. The channel starts empty and the first beads reach the neck as a
+// dilute front that cannot arch. The front has passed once the approach zone, the channel
+// between 3 D and D upstream of the neck, holds clog.front_fraction (default 0.5) of the
+// inlet's volume fraction; summary.json gives that time and the escapees counted after it.
+// Continuous mode (clog.mode = "continuous"): a clog is recorded, then the arch is removed (the
+// beads within a diameter of the most downstream bead that has not escaped: at a clog in the
+// neck, the neck's beads) and the flow goes on, until clog.avalanches clogs. A pile can then
+// jam again just upstream of the neck zone: after the first clog, beads anywhere in the
+// approach zone with no passage for clog.window also count as a clog.
+// Each clog's avalanche size (escapees since the flow last resumed) and start time go to
+// summary.json; avalanches that start after the front has passed are the stationary ones.
+//
 // Early end at rest: once a clog holds, the pile behind it grows until it reaches the inlet
 // and then stops dead (kinetic energy ~1e-35 J). A pile at rest under steady drag, with an
 // inlet that is full, is a fixed point: nothing can change at the neck for the rest of the
@@ -29,13 +41,15 @@ class ClogMonitor : public Module {
   long escapees() const { return escaped_; }
   bool clogged() const { return clogged_; }
   double clog_time() const { return last_change_; }
-  void save_state(std::vector<std::pair<std::string, double>>& out) const override {
-    out.insert(out.end(), {{"clog.last_change", last_change_}, {"clog.rest_since", rest_since_}});
-  }
+  const std::vector<long>& avalanches() const { return sizes_; }
+  double front_time() const { return front_time_; }
+  long removed() const { return removed_; }
+  void save_state(std::vector<std::pair<std::string, double>>& out) const override;
 
  private:
   void check(Simulation& sim);
   bool at_rest(Simulation& sim) const;
+  void clog_found(Simulation& sim, const std::string& why);
   void publish(Simulation& sim) const;
   const Config& cfg_;
   long every_ = 1;
@@ -44,6 +58,14 @@ class ClogMonitor : public Module {
   const class Inlet* inlet_ = nullptr;
   double last_change_ = 0;
   bool clogged_ = false;
+  double zone_lo_ = 0, zone_hi_ = 0, zone_volume_ = 0;  // the approach zone
+  double front_time_ = -1;
+  long escaped_at_front_ = 0;
+  long avalanche_start_ = 0;  // escapees when the flow last resumed
+  double resumed_at_ = 0;
+  long removed_ = 0;          // particles removed from the neck (continuous mode)
+  std::vector<long> sizes_;
+  std::vector<double> starts_;
 };
 
 }  // namespace cassini
