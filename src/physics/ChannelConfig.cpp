@@ -126,6 +126,8 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.continuous = mode == "continuous";
   ch.avalanches = static_cast<int>(f.integer("clog.avalanches", 10));
   if (ch.avalanches < 1) f.fail("clog.avalanches", "a number of clogs >= 1");
+  ch.backflush = f.number("clog.backflush", 0.0);
+  if (!(ch.backflush >= 0)) f.fail("clog.backflush", "a time >= 0 (s; 0 removes the arch instead)");
   ch.front_fraction = f.number("clog.front_fraction", 0.5);
   if (!(ch.front_fraction > 0 && ch.front_fraction <= 1)) f.fail("clog.front_fraction", "a fraction in (0, 1]");
 }

@@ -50,6 +50,7 @@ struct ChannelConfig {
   double rest_speed = 0;        // every particle slower than this (and the inlet full) = at rest
   bool continuous = false;      // clog.mode = "continuous": clear the arch after each clog and go on
   int avalanches = 10;          // continuous mode: end after this many clogs
+  double backflush = 0;         // continuous mode: reverse the flow this long after a clog (0: remove the arch)
   double front_fraction = 0.5;  // the front has passed once the approach holds this x inlet_fraction
 };
 

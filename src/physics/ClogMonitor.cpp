@@ -4,9 +4,11 @@
 #include <numbers>
 #include <sstream>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ChannelGeometry.hpp"
 #include "physics/Inlet.hpp"
+#include "physics/StokesDrag.hpp"
 
 namespace cassini {
 
@@ -15,6 +17,8 @@ void ClogMonitor::setup(Simulation& sim) {
   last_change_ = sim.time;
   inlet_ = sim.find<Inlet>();
   const ChannelConfig& ch = cfg_.channel;
+  if (ch.backflush > 0 && !sim.find<StokesDrag>())
+    throw ConfigError(cfg_.source + ": key 'clog.backflush': a back-flush reverses the drag's flow; add the \"drag\" module");
   const ChannelGeometry geo(ch);
   zone_lo_ = ch.neck_x0 - 3 * ch.neck_width;
   zone_hi_ = ch.neck_x0 - ch.neck_width;
@@ -30,6 +34,10 @@ void ClogMonitor::setup(Simulation& sim) {
   if (sim.restart_value("clog.avalanche_start", v)) avalanche_start_ = std::lround(v);
   if (sim.restart_value("clog.resumed_at", v)) resumed_at_ = v;
   if (sim.restart_value("clog.removed", v)) removed_ = std::lround(v);
+  if (sim.restart_value("clog.backflush_until", v) && v >= 0) {
+    backflush_until_ = v;
+    sim.find<StokesDrag>()->set_flow_sign(-1);
+  }
   if (sim.restart_value("clog.avalanches", v))
     for (long k = 0; k < std::lround(v); ++k) {
       double s = 0, t = 0;
@@ -48,7 +56,8 @@ void ClogMonitor::save_state(std::vector<std::pair<std::string, double>>& out) c
   out.insert(out.end(), {{"clog.last_change", last_change_}, {"clog.rest_since", rest_since_},
                          {"clog.front_time", front_time_}, {"clog.escaped_at_front", double(escaped_at_front_)},
                          {"clog.avalanche_start", double(avalanche_start_)}, {"clog.resumed_at", resumed_at_},
-                         {"clog.removed", double(removed_)}, {"clog.avalanches", double(sizes_.size())}});
+                         {"clog.removed", double(removed_)}, {"clog.avalanches", double(sizes_.size())},
+                         {"clog.backflush_until", backflush_until_}});
   for (std::size_t k = 0; k < sizes_.size(); ++k) {
     out.emplace_back("clog.avalanche." + std::to_string(k), double(sizes_[k]));
     out.emplace_back("clog.avalanche_start." + std::to_string(k), starts_[k]);
@@ -61,6 +70,14 @@ void ClogMonitor::end_of_step(Simulation& sim) {
 
 void ClogMonitor::check(Simulation& sim) {
   const ChannelConfig& ch = cfg_.channel;
+  if (backflush_until_ >= 0) {
+    if (sim.time < backflush_until_) return;
+    backflush_until_ = -1;  // forwards again: a fresh avalanche from the next count
+    sim.find<StokesDrag>()->set_flow_sign(1);
+    in_neck_ = -1;
+    escaped_ = -1;
+  }
+  const bool resuming = escaped_ < 0;
   const ParticleStore& p = sim.particles;
   const double neck_lo = ch.neck_x0 - 2 * cfg_.max_radius();
   long local[3] = {static_cast<long>(sim.halo.removed_upper), 0, 0}, global[3];
@@ -77,6 +94,10 @@ void ClogMonitor::check(Simulation& sim) {
   if (front_time_ < 0 && zone >= ch.front_fraction * ch.inlet_fraction * zone_volume_) {
     front_time_ = sim.time;
     escaped_at_front_ = global[0];
+  }
+  if (resuming) {
+    avalanche_start_ = global[0];
+    resumed_at_ = sim.time;
   }
   if (global[0] != escaped_ || global[1] != in_neck_) {
     escaped_ = global[0];
@@ -107,10 +128,19 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
     sim.finish(why + (cfg_.channel.continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
     return;
   }
+  ParticleStore& p = sim.particles;
+  if (cfg_.channel.backflush > 0) {
+    for (std::size_t i = 0; i < p.nlocal; ++i)
+      if (p.x[i][0] > cfg_.channel.pass_x) p.x[i][0] = cfg_.hi[0] + 1.0;  // out through the outlet
+    sim.find<StokesDrag>()->set_flow_sign(-1);
+    backflush_until_ = sim.time + cfg_.channel.backflush;
+    clogged_ = false;
+    rest_since_ = -1;
+    return;
+  }
   // Clear the arch: the beads within a diameter of the most downstream bead that has not
   // escaped (at the neck: the neck zone). They leave the domain upstream (removed at the next
   // rebuild, which their displacement forces; not escapees). The clock and counts restart.
-  ParticleStore& p = sim.particles;
   double lead = -1e300;
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (p.x[i][0] <= cfg_.channel.pass_x) lead = std::max(lead, p.x[i][0]);

@@ -15,7 +15,10 @@
 // beads within a diameter of the most downstream bead that has not escaped: at a clog in the
 // neck, the neck's beads) and the flow goes on, until clog.avalanches clogs. A pile can then
 // jam again just upstream of the neck zone: after the first clog, beads anywhere in the
-// approach zone with no passage for clog.window also count as a clog.
+// approach zone with no passage for clog.window also count as a clog. With clog.backflush > 0
+// the clog is cleared as in the experiments instead: the beads past clog.pass_x (escaped,
+// already counted) leave through the outlet, the flow runs backwards for clog.backflush
+// seconds (re-suspending the pile), then forwards again; the next avalanche counts from there.
 // Each clog's avalanche size (escapees since the flow last resumed) and start time go to
 // summary.json; avalanches that start after the front has passed are the stationary ones.
 //
@@ -63,6 +66,7 @@ class ClogMonitor : public Module {
   long escaped_at_front_ = 0;
   long avalanche_start_ = 0;  // escapees when the flow last resumed
   double resumed_at_ = 0;
+  double backflush_until_ = -1;  // the flow runs backwards until then (-1: it does not)
   long removed_ = 0;          // particles removed from the neck (continuous mode)
   std::vector<long> sizes_;
   std::vector<double> starts_;

@@ -60,7 +60,7 @@ void StokesDrag::sample(Simulation& sim) {
 void StokesDrag::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal && i < factor_.size(); ++i)
-    F[i] += p.mass[i] * factor_[i] * (flow_->velocity(p.x[i]) - p.v[i]);
+    F[i] += p.mass[i] * factor_[i] * (sign_ * flow_->velocity(p.x[i]) - p.v[i]);
 }
 
 void StokesDrag::post_rebuild(Simulation& sim) {
@@ -77,7 +77,7 @@ void StokesDrag::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   double power = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const Vec3 f = p.mass[i] * factor_[i] * (flow_->velocity(p.x[i]) - p.v[i]);
+    const Vec3 f = p.mass[i] * factor_[i] * (sign_ * flow_->velocity(p.x[i]) - p.v[i]);
     p.f[i] += f;
     power += f.dot(p.v[i]);  // the half-step velocity: the work of this force over the step
   }

@@ -42,6 +42,8 @@ class StokesDrag : public Module {
   const FlowField& flow() const { return *flow_; }
   const VolumeFraction& fraction() const { return phi_field_; }
   double phi_of(std::size_t i) const { return phi_[i]; }
+  // The flow's direction: -1 reverses it (a back-flush after a clog, clog.backflush).
+  void set_flow_sign(double s) { sign_ = s; }
 
  private:
   void refresh(Simulation& sim);  // the phi field from the particles, then sample()
@@ -57,6 +59,7 @@ class StokesDrag : public Module {
   std::vector<double> phi_;     // per owned particle, in the current slot order
   std::vector<double> factor_;  // (1 - exp(-beta dt)) / dt per owned particle
   double work_ = 0;             // done on this rank's particles so far: sum F . v dt
+  double sign_ = 1;
 };
 
 }  // namespace cassini
