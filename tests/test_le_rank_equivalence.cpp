@@ -127,3 +127,9 @@ TEST(LeesEdwardsRanks, FrictionalShearedGasMetisCells) {
   // Cells owned by METIS parts: the ranks across the sheared boundary are a patchwork.
   compare_rank_counts(kShearedGas, {"domain.decomposition=\"metis\""}, 10000, 0.02 * 0.99);
 }
+
+TEST(LeesEdwardsRanks, PropellerPatchMultiRate) {
+  // The multi-rate integrator: classification and wake-ups are made from each particle's own
+  // side, so they too are the same on any rank count (long steps of 50 steps).
+  compare_rank_counts(kRing, {"time.integrator=\"multirate\"", "time.long_step=20.0"}, 11000, 1000.0);
+}

@@ -240,6 +240,22 @@ Config read_config(CaseFile& f) {
            "dt below the stability limit " + std::to_string(dt_stable) +
                " of the contact scheme (unstable beyond, even with time.force)");
   c.t_end = positive(f, "time.end");
+  c.integrator = f.string("time.integrator", "verlet");
+  if (c.integrator != "verlet" && c.integrator != "multirate") f.fail("time.integrator", "\"verlet\" or \"multirate\"");
+  if (c.integrator == "multirate") {
+    if (!c.has_module("hill") || c.hill_form != "linear")
+      f.fail("time.integrator", "\"verlet\": \"multirate\" needs module \"hill\" with hill.form = \"linear\" (its free particles follow the exact linear epicycle)");
+    for (const auto& m : c.modules)
+      if (m != "contact" && m != "hill" && m != "moonlet")
+        f.fail("time.integrator", "\"verlet\" with module \"" + m + "\" (\"multirate\" supports contact, hill and moonlet)");
+    const double t0 = 2 * 3.141592653589793 / c.omega0();
+    c.long_step = positive(f, "time.long_step", std::max(c.dt, std::round(t0 / 1000 / c.dt) * c.dt));
+    if (c.long_step < c.dt) f.fail("time.long_step", "at least time.dt = " + std::to_string(c.dt));
+    c.max_tidal_phase = positive(f, "time.max_tidal_phase", 0.1);
+  } else {
+    for (const char* k : {"time.long_step", "time.max_tidal_phase"})
+      if (f.has(k)) f.fail(k, "no value unless time.integrator = \"multirate\"");
+  }
 
   // ---- initial particles
   c.init = f.string("particles.init", "random");

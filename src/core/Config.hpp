@@ -84,6 +84,12 @@ struct Config {
 
   double dt = 0, t_end = 0;
   bool force_dt = false;
+  // time.integrator: "verlet" (every particle every step) or "multirate" (Hill-frame scenes:
+  // free particles on the exact epicycle, the moonlet's pull as kicks every long step,
+  // contact steps only for particles that touch; see MultiRateHill.hpp)
+  std::string integrator = "verlet";
+  double long_step = 0;          // multirate: seconds (a whole number of steps; default ~T0/1000)
+  double max_tidal_phase = 0.1;  // multirate: sqrt(G M_moonlet / r^3) x long step above this: contact steps
 
   double dump_every = 0;      // simulated time between text dumps (0: none)
   double snapshot_every = 0;  // simulated time between H5MD snapshots (0: none)

@@ -5,6 +5,7 @@
 // One step (velocity Verlet, kick-drift-kick):
 //   initial_integrate   v += dt/2 F/m; x += dt v          (VelocityVerlet)
 //   -- ghosts refreshed, or neighbour list rebuilt (pre_rebuild / post_rebuild)
+//   pre_force           the integrator picks which owned particles get forces this step
 //   force               forces from x(t+dt) and the half-step velocity v(t+dt/2)
 //   final_integrate     v += dt/2 F/m
 //   end_of_step         guards, observables, output
@@ -37,6 +38,7 @@ enum Stage : unsigned {
   kFinalIntegrate = 1u << 2,
   kEndOfStep = 1u << 3,
   kRebuild = 1u << 4,  // pre_rebuild / post_rebuild around migration and list rebuild
+  kPreForce = 1u << 5,
 };
 
 class Module {
@@ -47,6 +49,10 @@ class Module {
 
   virtual void setup(Simulation&) {}
   virtual void initial_integrate(Simulation&) {}
+  // Before any force: a multi-rate integrator sets Simulation::targets here.
+  virtual void pre_force(Simulation&) {}
+  // Forces on the owned particles Simulation::for_each_target names (all, but under a
+  // multi-rate integrator between its long steps).
   virtual void force(Simulation&) {}
   virtual void final_integrate(Simulation&) {}
   virtual void end_of_step(Simulation&) {}

@@ -11,6 +11,7 @@
 #include "physics/Guards.hpp"
 #include "physics/HillFrame.hpp"
 #include "physics/Moonlet.hpp"
+#include "physics/MultiRateHill.hpp"
 #include "physics/PlaneWalls.hpp"
 #include "physics/VelocityVerlet.hpp"
 
@@ -42,9 +43,13 @@ int moonlet_wall_slot(const Config& cfg) {
 
 std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation& sim) {
   std::vector<std::unique_ptr<Module>> m;
-  auto integrator = std::make_unique<VelocityVerlet>(cfg.planar);
-  if (cfg.has_module("hill")) integrator->set_frame_rotation(cfg.omega0());
-  m.push_back(std::move(integrator));
+  if (cfg.integrator == "multirate") {
+    m.push_back(std::make_unique<MultiRateHill>(cfg, sim.dt));
+  } else {
+    auto integrator = std::make_unique<VelocityVerlet>(cfg.planar);
+    if (cfg.has_module("hill")) integrator->set_frame_rotation(cfg.omega0());
+    m.push_back(std::move(integrator));
+  }
   // Force order is fixed (contacts, walls, body forces): part of what makes runs reproducible.
   if (cfg.has_module("contact")) m.push_back(std::make_unique<ContactForces>(cfg, sim.dt));
   if (cfg.has_module("lubrication")) m.push_back(std::make_unique<Lubrication>(cfg, sim.dt));

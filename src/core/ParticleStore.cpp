@@ -14,6 +14,7 @@ void ParticleStore::resize(std::size_t n) {
   v.resize(n);
   f.resize(n, Vec3::Zero());
   x_build.resize(n);
+  mode.resize(n, 0);
   if (rotation) {
     omega.resize(n, Vec3::Zero());
     torque.resize(n, Vec3::Zero());
@@ -33,6 +34,7 @@ void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3
   x[i] = pos;
   v[i] = vel;
   x_build[i] = pos;
+  mode[i] = 0;
   if (rotation) {
     omega[i].setZero();
     inv_inertia[i] = 1.0 / (0.4 * m * a * a);  // solid sphere: I = 2/5 m a^2
@@ -50,6 +52,7 @@ void ParticleStore::copy(std::size_t from, std::size_t to) {
   v[to] = v[from];
   f[to] = f[from];
   x_build[to] = x_build[from];
+  mode[to] = mode[from];
   if (rotation) {
     omega[to] = omega[from];
     torque[to] = torque[from];
@@ -59,12 +62,17 @@ void ParticleStore::copy(std::size_t from, std::size_t to) {
 }
 
 void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
+  // Into a scratch array kept per element type, then swapped: no allocation after the first
+  // rebuilds. A fresh array per column (as before) cost a page fault per 4 KiB at every rebuild,
+  // and the ghosts appended next had to reallocate every column again.
   auto apply = [&](auto& vec, std::size_t width) {
     using T = typename std::decay_t<decltype(vec)>::value_type;
-    std::vector<T> out(order.size() * width);
+    static thread_local std::vector<T> out;
+    out.resize(order.size() * width);
     for (std::size_t k = 0; k < order.size(); ++k)
       for (std::size_t w = 0; w < width; ++w) out[k * width + w] = vec[order[k] * width + w];
     vec.swap(out);
+    if (vec.capacity() < out.capacity()) vec.reserve(out.capacity());  // room for the ghosts
   };
   apply(id, 1);
   apply(species, 1);
@@ -75,6 +83,7 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
   apply(v, 1);
   apply(f, 1);
   apply(x_build, 1);
+  apply(mode, 1);
   if (rotation) {
     apply(omega, 1);
     apply(torque, 1);
@@ -85,8 +94,8 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
 }
 
 std::size_t ParticleStore::packed_size() const {
-  // id, species, radius, mass, x, v, x_build, f (+ omega, torque, wall_xi)
-  return 4 + 12 + (rotation ? 6 + 3 * walls : 0);
+  // id, species, radius, mass, x, v, x_build, f, mode (+ omega, torque, wall_xi)
+  return 5 + 12 + (rotation ? 6 + 3 * walls : 0);
 }
 
 void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
@@ -99,6 +108,7 @@ void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
   buf.push_back(mass[i]);
   // f travels too: after a rebuild at the end of a step the next kick needs F(t).
   for (const Vec3* q : {&x[i], &v[i], &x_build[i], &f[i]}) buf.insert(buf.end(), q->data(), q->data() + 3);
+  buf.push_back(mode[i]);
   if (rotation) {
     buf.insert(buf.end(), omega[i].data(), omega[i].data() + 3);
     buf.insert(buf.end(), torque[i].data(), torque[i].data() + 3);
@@ -115,7 +125,8 @@ std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o)
   const std::size_t i = size() - 1;
   x_build[i] = Vec3(buf[o + 10], buf[o + 11], buf[o + 12]);
   f[i] = Vec3(buf[o + 13], buf[o + 14], buf[o + 15]);
-  o += 16;
+  mode[i] = static_cast<std::uint8_t>(buf[o + 16]);
+  o += 17;
   if (rotation) {
     omega[i] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
     torque[i] = Vec3(buf[o + 3], buf[o + 4], buf[o + 5]);

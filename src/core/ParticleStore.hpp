@@ -32,6 +32,9 @@ struct ParticleStore {
   std::vector<double> inv_inertia;    // rotation only
   std::vector<Vec3> x_build;          // position at the last neighbour-list build
   std::vector<Vec3> wall_xi;          // rotation only: tangential spring per (particle, wall)
+  // The integrator's mode of the particle, carried through migration (multi-rate: on the
+  // free epicycle or on contact steps; see MultiRateHill). 0 for the plain integrator.
+  std::vector<std::uint8_t> mode;
 
   std::size_t size() const { return id.size(); }
   std::size_t nghost() const { return size() - nlocal; }

@@ -49,7 +49,7 @@ void Simulation::setup() {
     if (auto* w = dynamic_cast<PlaneWalls*>(m.get())) walls = w;
     if (auto* ml = dynamic_cast<Moonlet*>(m.get())) moonlet = ml;
     const unsigned s = m->stages();
-    for (int k = 0; k < 5; ++k)
+    for (int k = 0; k < 6; ++k)
       if (s & (1u << k)) stage_[k].push_back(m.get());
   }
   if (particles.size() == 0 && !restored) place_particles(cfg, domain, particles);
@@ -137,8 +137,15 @@ void Simulation::rebuild() {
 
 void Simulation::compute_forces() {
   ParticleStore& p = particles;
-  std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
-  if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
+  if (all_targets) {
+    std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
+    if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
+  } else {
+    for (const std::uint32_t i : targets) {
+      p.f[i].setZero();
+      if (p.rotation) p.torque[i].setZero();
+    }
+  }
   for (Module* m : stage_[1]) {
     auto t = timers.scope(m == contact ? StageTimers::Pair : StageTimers::Modules);
     m->force(*this);
@@ -182,13 +189,18 @@ void Simulation::step() {
   }
   if (global[1] > 0) check_guards();
   const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * range;
-  if (approach > skin) {
+  rebuilt_this_step = approach > skin;
+  if (rebuilt_this_step) {
     rebuild();
   } else {
     auto t = timers.scope(StageTimers::Comm);
     halo.update_ghosts(particles);
   }
 
+  if (!stage_[5].empty()) {
+    auto t = timers.scope(StageTimers::Integrate);
+    for (Module* m : stage_[5]) m->pre_force(*this);
+  }
   compute_forces();
   {
     auto t = timers.scope(StageTimers::Integrate);
@@ -216,11 +228,25 @@ void Simulation::check_guards() {
   throw GuardError(msg);
 }
 
+namespace {
+struct Cadence {
+  long nsteps, observe, dump, snap;  // dump, snap: 0 for none
+};
+Cadence cadence(const Config& cfg, double dt) {
+  return {std::lround(cfg.t_end / dt), std::max(1L, std::lround(cfg.observe_every / dt)),
+          cfg.dump_every > 0 ? std::max(1L, std::lround(cfg.dump_every / dt)) : 0,
+          cfg.snapshot_every > 0 ? std::max(1L, std::lround(cfg.snapshot_every / dt)) : 0};
+}
+}  // namespace
+
+bool Simulation::is_output_step(long step) const {
+  const Cadence c = cadence(cfg, dt);
+  return step >= c.nsteps || step % c.observe == 0 || (c.dump && step % c.dump == 0) || (c.snap && step % c.snap == 0);
+}
+
 void Simulation::run(RunOutput* out) {
-  const long nsteps = std::lround(cfg.t_end / dt);
-  const long observe_every = std::max(1L, std::lround(cfg.observe_every / dt));
-  const long dump_every = cfg.dump_every > 0 ? std::max(1L, std::lround(cfg.dump_every / dt)) : 0;
-  const long snap_every = cfg.snapshot_every > 0 ? std::max(1L, std::lround(cfg.snapshot_every / dt)) : 0;
+  const Cadence c = cadence(cfg, dt);
+  const long nsteps = c.nsteps, observe_every = c.observe, dump_every = c.dump, snap_every = c.snap;
   long n_total = total_particles();
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();

@@ -71,6 +71,25 @@ class Simulation {
   // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).
   double stream = 0, max_drift2 = 0;
 
+  // The owned particles that get forces this step (ascending slots), or all of them. A
+  // multi-rate integrator narrows it between its long steps (Module::pre_force). A force
+  // module loops `const TargetList T = sim.target_list(); for (t < T.count) { i = T[t]; ... }`
+  // (a plain loop, not a callback: accumulators then stay in registers).
+  bool all_targets = true;
+  std::vector<std::uint32_t> targets;
+  struct TargetList {
+    const std::uint32_t* list;  // null: every owned particle, in order
+    std::size_t count;
+    std::size_t operator[](std::size_t t) const { return list ? list[t] : t; }
+  };
+  TargetList target_list() const {
+    return all_targets ? TargetList{nullptr, particles.nlocal} : TargetList{targets.data(), targets.size()};
+  }
+  bool rebuilt_this_step = false;  // the neighbour list was rebuilt in the current step
+  // Steps after which output is written (observables, dumps, snapshots) and the last step:
+  // an integrator with long steps ends one there, so that output sees a synchronised state.
+  bool is_output_step(long step) const;
+
   double dt = 0, time = 0;
   long step_count = 0;
   double range = 0, skin = 0;
@@ -120,7 +139,7 @@ class Simulation {
   void check_guards();
   void check_initial_overlaps();
   bool global_guard_pending();
-  std::vector<Module*> stage_[5];
+  std::vector<Module*> stage_[6];
   std::string guard_message_;
   bool guard_dumped_ = false;
   RunOutput* output_ = nullptr;  // during run(): where a tripped guard dumps its state

@@ -31,7 +31,6 @@ void ContactForces::force(Simulation& sim) {
   const std::int64_t* ID = p.id.data();
   double overlap_sum = 0;
   long onsets = 0;
-  const std::size_t nlocal = p.nlocal;
   // A pair of two owned particles is evaluated once, from its lower slot; the result is stored
   // at the partner's mirror entry and read there in list order. The law is exactly antisymmetric
   // (see LinearSpringDashpot), so this is bitwise the same as evaluating both sides (springs
@@ -52,7 +51,11 @@ void ContactForces::force(Simulation& sim) {
   const double half_jump_dt = sheared ? 0.5 * sim.domain.shear.rate * sim.domain.length[1] * dt : 0.0;
   double boundary_work = 0;
   auto across = [&](std::uint32_t j) { return X[j][1] >= y_hi ? 1.0 : X[j][1] < y_lo ? -1.0 : 0.0; };
-  for (std::size_t i = 0; i < nlocal; ++i) {
+  // Ascending slots (all, or the multi-rate integrator's targets): a mirror result is read
+  // after its lower slot wrote it.
+  const Simulation::TargetList targets = sim.target_list();
+  for (std::size_t t = 0; t < targets.count; ++t) {
+    const std::size_t i = targets[t];
     if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up
     const Vec3 xi = X[i], vi = V[i];
     const double ai = A[i], mi = M[i];

@@ -52,17 +52,23 @@ void HillFrame::force(Simulation& sim) {
     const Vec3* X = p.x.data();  // raw views: the stores to f could alias the vectors' pointers
     const double* M = p.mass.data();
     Vec3* F = p.f.data();
+    const Simulation::TargetList T = sim.target_list();
     if (planar_) {
-      for (std::size_t i = 0; i < p.nlocal; ++i) F[i][1] += M[i] * k * X[i][1];
+      if (!T.list)  // the plain loop for all: it vectorises
+        for (std::size_t i = 0; i < T.count; ++i) F[i][1] += M[i] * k * X[i][1];
+      else
+        for (std::size_t t = 0; t < T.count; ++t) F[T[t]][1] += M[T[t]] * k * X[T[t]][1];
     } else {
-      for (std::size_t i = 0; i < p.nlocal; ++i) {
+      for (std::size_t t = 0; t < T.count; ++t) {
+        const std::size_t i = T[t];
         F[i][1] += M[i] * k * X[i][1];
         F[i][2] -= M[i] * kz * X[i][2];
       }
     }
     return;
   }
-  for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * acceleration(p.x[i]);
+  const Simulation::TargetList T = sim.target_list();
+  for (std::size_t t = 0; t < T.count; ++t) p.f[T[t]] += p.mass[T[t]] * acceleration(p.x[T[t]]);
 }
 
 }  // namespace cassini

@@ -28,21 +28,26 @@ void Moonlet::force(Simulation& sim) {
   Vec3* F = p.f.data();
   const double* M = p.mass.data();
   const double* A = p.radius.data();
-  const std::size_t n = p.nlocal;
   const double gm = gm_, R = radius_;
-  for (std::size_t i = 0; i < n; ++i) {
+  const Simulation::TargetList T = sim.target_list();
+  auto pull = [&](std::size_t i) {
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
     const double s = M[i] * gravity_scale(x * x + y * y + z * z, gm, R);
     F[i][0] += s * x;
     F[i][1] += s * y;
     F[i][2] += s * z;
-  }
+  };
+  if (!T.list)  // the plain loop for all: it vectorises
+    for (std::size_t i = 0; i < T.count; ++i) pull(i);
+  else
+    for (std::size_t t = 0; t < T.count; ++t) pull(T[t]);
   double worst = 0;
   long contacts = 0;
   const bool exact = law_.exact();
   const double dt = law_.dt();
   shifts_.clear();
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t t = 0; t < T.count; ++t) {
+    const std::size_t i = T[t];
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
     const double d2 = x * x + y * y + z * z, reach = R + A[i];
     // With friction each particle keeps a tangential spring with the moonlet (its last wall

@@ -1,0 +1,156 @@
+// The multi-rate Hill integrator (time.integrator = "multirate") against analytic solutions
+// and against the plain scheme (every particle on velocity Verlet steps).
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "TestScene.hpp"
+#include "physics/ContactForces.hpp"
+#include "physics/MultiRateHill.hpp"
+
+using namespace cassini;
+using namespace cassini::test;
+
+namespace {
+
+const double kOmega = std::sqrt(kGravitationalConstant * 5.68e26 / std::pow(1.17e8, 3));
+const double kMass = 500.0 * 4.0 / 3.0 * std::numbers::pi * 8.0;
+const double kT0 = 2 * std::numbers::pi / kOmega;
+
+// One particle in an empty 3D Hill-frame box.
+const char* kEmpty = R"(
+modules = ["contact", "hill"]
+[domain]
+lo = [-1000.0, -1000.0, -100.0]
+hi = [1000.0, 1000.0, 100.0]
+boundary = ["periodic", "lees_edwards", "periodic"]
+[hill]
+vertical_frequency = 2.0
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 100.0
+e = 0.25
+[particles]
+init = "none"
+[time]
+dt = 10.0
+end = 1.0
+integrator = "multirate"
+)";
+
+// A ring gas at optical depth 0.1 (1,600 particles), no moonlet.
+const char* kGas = R"(
+seed = 11
+modules = ["contact", "hill"]
+[domain]
+lo = [-400.0, -100.0, -10.0]
+hi = [400.0, 100.0, 10.0]
+boundary = ["periodic", "lees_edwards", "periodic"]
+planar = true
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 10.0
+e = 0.5
+[particles]
+init = "random"
+optical_depth = 0.1
+shear_flow = true
+dispersion = 0.02
+[contact]
+skin = 1.0
+[time]
+n_c = 10
+end = 1.0e6
+)";
+
+// Radial velocity dispersion (relative to the shear) and mean, over all ranks.
+double radial_dispersion(const Simulation& sim) {
+  const auto& p = sim.particles;
+  double s[2] = {0, 0}, g[2];
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    s[0] += p.v[i][1] * p.v[i][1];
+    s[1] += 1;
+  }
+  MPI_Allreduce(s, g, 2, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  return std::sqrt(g[0] / g[1]);
+}
+
+struct GasRun {
+  long collisions = 0;
+  double dispersion = 0;
+  MultiRateHill* multirate = nullptr;
+  std::unique_ptr<Simulation> sim;
+};
+
+GasRun run_gas(const std::string& integrator, double orbits) {
+  GasRun r;
+  r.sim = make_sim(kGas, {"time.integrator=\"" + integrator + "\""});
+  r.sim->setup();
+  r.multirate = r.sim->find<MultiRateHill>();
+  while (r.sim->time < orbits * kT0) r.sim->step();
+  r.collisions = r.sim->contact->take_collisions();
+  r.dispersion = radial_dispersion(*r.sim);
+  return r;
+}
+
+}  // namespace
+
+TEST(MultiRate, FreeParticleIsOnTheExactEpicycleAtAnyStep) {
+  // Analytic solution of Hill's linear equations in guiding-centre form (as test_hill_frame)
+  // and the vertical oscillation at Omega_z = 2 Omega0; dt = 10 s, 25x the ring's step, where
+  // velocity Verlet's phase error would be ~1e-4 of the amplitude after 10 orbits.
+  auto sim = make_sim(kEmpty);
+  const double x0 = 0, y0 = 100.0, z0 = 3.0, vx0 = 1.5 * kOmega * 60.0, vy0 = 0.004, vz0 = 0.001;
+  sim->particles.add(0, 0, 2.0, kMass, Vec3(x0, y0, z0), Vec3(vx0, vy0, vz0));
+  sim->setup();
+  const double W = kOmega, Wz = 2 * kOmega, C = vx0 - 2 * W * y0, yg = -2 * C / W, B = y0 - yg, D = vy0 / W;
+  const double amplitude = std::hypot(B, D);
+  double worst = 0, worst_z = 0, x_unwrapped = x0, x_last = x0;
+  while (sim->time < 10 * kT0) {
+    sim->step();
+    const auto& p = sim->particles;
+    double dx = p.x[0][0] - x_last;
+    dx -= sim->domain.length[0] * std::round(dx / sim->domain.length[0]);
+    x_unwrapped += dx;
+    x_last = p.x[0][0];
+    const double s = sim->time;
+    const double x = x0 - 3 * C * s + 2 * B * std::sin(W * s) - 2 * D * (std::cos(W * s) - 1);
+    const double y = yg + B * std::cos(W * s) + D * std::sin(W * s);
+    const double z = z0 * std::cos(Wz * s) + vz0 / Wz * std::sin(Wz * s);
+    worst = std::max({worst, std::abs(x_unwrapped - x), std::abs(p.x[0][1] - y)});
+    worst_z = std::max(worst_z, std::abs(p.x[0][2] - z));
+  }
+  std::printf("multi-rate free epicycle over 10 orbits at dt = 10 s: max deviation %.3e m (amplitude %.1f m), z %.3e m\n",
+              worst, amplitude, worst_z);
+  EXPECT_LT(worst, 1e-9 * amplitude);
+  EXPECT_LT(worst_z, 1e-9 * z0);
+}
+
+TEST(MultiRate, RingGasCollidesAsThePlainScheme) {
+  // Same initial state; the two schemes differ by rounding and by the free particles' exact
+  // drift (Verlet's error is (Omega dt)^2 ~ 1e-6), so over the first 0.05 orbits (about a
+  // collision per ten particles) the same collisions happen: a missed contact would show.
+  {
+    const GasRun plain = run_gas("verlet", 0.05), multi = run_gas("multirate", 0.05);
+    std::printf("first 0.05 orbits: %ld collisions (plain), %ld (multi-rate); contact steps %.4f of particle-steps\n",
+                plain.collisions, multi.collisions,
+                double(multi.multirate->contact_particle_steps) /
+                    double(multi.multirate->contact_particle_steps + multi.multirate->free_particle_steps));
+    EXPECT_GT(plain.collisions, 50);
+    EXPECT_LE(std::abs(plain.collisions - multi.collisions), 2);
+    EXPECT_EQ(multi.multirate->missed, 0);
+  }
+  // Over half an orbit the gas cools (e = 0.5) by collisions: the dispersion after it is the
+  // collisional physics, compared within 5 % (the seed-to-seed scatter at 1,600 particles is ~2 %).
+  const GasRun plain = run_gas("verlet", 0.5), multi = run_gas("multirate", 0.5);
+  std::printf("after 0.5 orbits: collisions %ld / %ld, radial dispersion %.4e / %.4e m/s (plain / multi-rate)\n",
+              plain.collisions, multi.collisions, plain.dispersion, multi.dispersion);
+  EXPECT_NEAR(double(multi.collisions) / double(plain.collisions), 1.0, 0.05);
+  EXPECT_NEAR(multi.dispersion / plain.dispersion, 1.0, 0.05);
+  const double frac = double(multi.multirate->contact_particle_steps) /
+                      double(multi.multirate->contact_particle_steps + multi.multirate->free_particle_steps);
+  EXPECT_LT(frac, 0.3) << "most particle-steps should be free ones";
+}
