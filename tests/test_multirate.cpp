@@ -154,3 +154,55 @@ TEST(MultiRate, RingGasCollidesAsThePlainScheme) {
                       double(multi.multirate->contact_particle_steps + multi.multirate->free_particle_steps);
   EXPECT_LT(frac, 0.3) << "most particle-steps should be free ones";
 }
+
+TEST(MultiRate, MoonletEncountersEndAsWithThePlainScheme) {
+  // One particle meets the moonlet (r_H = 228.5 m) on a horseshoe orbit (b = 200 m: it turns
+  // back, to y_g = -142 m) and on a passing one (b = 600 m: it leaves with an epicycle). Far
+  // from the moonlet its pull is a kick every long step (40.8 s, 102 steps); the plain scheme
+  // at the same dt = 0.4 s is the reference. Compared after 2 orbits: guiding centre and
+  // epicycle amplitude, which the encounter set.
+  const std::string scene = R"(
+modules = ["contact", "hill", "moonlet"]
+[domain]
+lo = [-10000.0, -1000.0, -10.0]
+hi = [10000.0, 1000.0, 10.0]
+boundary = ["periodic", "lees_edwards", "periodic"]
+planar = true
+[moonlet]
+mass = 1.27e10
+radius = 150.0
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 4.0
+e = 0.25
+[particles]
+init = "none"
+[time]
+n_c = 10
+end = 1.0e6
+)";
+  for (const double b : {200.0, 600.0}) {
+    double final_state[2][4];
+    for (int k = 0; k < 2; ++k) {
+      auto sim = make_sim(scene, {k ? "time.integrator=\"multirate\"" : "time.integrator=\"verlet\""});
+      const double x0 = -(b < 400 ? 3000.0 : 4000.0);  // upstream (y > 0 flows towards +x)
+      sim->particles.add(0, 0, 2.0, kMass, Vec3(x0, b, 0), Vec3(1.5 * kOmega * b, 0, 0));
+      sim->setup();
+      while (sim->time < 2 * kT0) sim->step();
+      const Vec3 x = sim->particles.x[0], v = sim->particles.v[0];
+      // guiding centre y_g = 4 y - 2 vx / W (test_hill_frame), radial amplitude
+      const double yg = 4 * x[1] - 2 * v[0] / kOmega, amp = std::hypot(x[1] - yg, v[1] / kOmega);
+      final_state[k][0] = yg;
+      final_state[k][1] = amp;
+      final_state[k][2] = x[1];
+      final_state[k][3] = x[0];
+    }
+    std::printf("b = %.0f m: guiding centre %.3f / %.3f m, amplitude %.4f / %.4f m (plain / multi-rate)\n", b,
+                final_state[0][0], final_state[1][0], final_state[0][1], final_state[1][1]);
+    if (b < 400) EXPECT_LT(final_state[0][0], -100.0) << "a horseshoe: the particle turned back";
+    else EXPECT_GT(final_state[0][1], 1.0) << "a passing particle keeps an epicycle";
+    EXPECT_NEAR(final_state[1][0], final_state[0][0], 1e-3 * b);
+    EXPECT_NEAR(final_state[1][1], final_state[0][1], 0.01 * final_state[0][1] + 0.01);
+  }
+}

@@ -1,0 +1,87 @@
+"""Drives scripts/bench-ring: CPU per orbit of the ring patch in cassini (plain and multi-rate
+schemes, one rank) and in REBOUND (../shared/peers/rebound/run.sh), one after the other."""
+import json, os, re, resource, statistics, subprocess, sys, tempfile
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+T0 = 40840.0
+PEER = os.path.abspath(os.path.join(ROOT, "../shared/peers/rebound/run.sh"))
+if not os.path.exists(PEER):
+    PEER = "/work/shared/peers/rebound/run.sh"
+
+
+def child_cpu():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def cassini(case, orbits, overrides):
+    """CPU seconds per orbit (one rank) and the run's summary."""
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [os.path.join(ROOT, "build/cassini"), case, "--out", out + "/run", "--set", f"time.end={orbits * T0}",
+               "--set", "output.dump_every=0"]
+        for o in overrides:
+            cmd += ["--set", o]
+        before = child_cpu()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        cpu = child_cpu() - before
+        with open(out + "/run/summary.json") as f:
+            summary = json.load(f)
+    return cpu / orbits, summary
+
+
+def rebound(orbits, n, lx, ly):
+    src = os.environ.get("REBOUND_SRC")
+    if not src:
+        return None
+    env = dict(os.environ, RING_ORBITS=str(orbits), RING_N=str(n), RING_LX=str(lx), RING_LY=str(ly))
+    out = subprocess.run(["bash", PEER], check=True, capture_output=True, text=True, env=env).stdout
+    m = re.search(r"rebound_cpu_per_orbit:\s*([0-9.eE+-]+)", out)
+    return float(m.group(1)) if m else None
+
+
+def main():
+    args = sys.argv[1:]
+    repeats = int(args[0]) if args else 1
+    orbits = float(args[1]) if len(args) > 1 else 1.0
+    taus = [float(t) for t in args[2].split(",")] if len(args) > 2 else []
+    rows = []
+    # 1. cases/propeller as shipped (moonlet, tau 0.0105) and REBOUND's patch of the same ring.
+    plain, multi, peer = [], [], []
+    for r in range(repeats):
+        plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"'])[0])
+        cpu, s = cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'])
+        multi.append(cpu)
+        mr = s.get("multirate", {})
+        p = rebound(orbits, 30000, 2000, 18000)
+        if p is not None:
+            peer.append(p)
+        print(f"repeat {r + 1}: cassini plain {plain[-1]:.1f}, multi-rate {multi[-1]:.1f}"
+              f" (contact steps {mr.get('contact_step_fraction', 0):.4f}, wakes {mr.get('wakes')},"
+              f" missed {mr.get('missed_moonlet_contacts')}), REBOUND {peer[-1] if peer else 'n/a'} CPU-s/orbit", flush=True)
+    # 2. Orbit cost against optical depth, ring section without a moonlet.
+    for tau in taus:
+        o = min(orbits, 0.1)
+        # a 1 km x 1 km patch: N from 800 (tau 0.01) to 40,000 (tau 0.5)
+        n = round(tau * 1000 * 1000 / (3.141592653589793 * 4))
+        over = [f"particles.count={n}", "domain.lo=[-500.0, -500.0, -10.0]", "domain.hi=[500.0, 500.0, 10.0]"]
+        pl = cassini(os.path.join(ROOT, "cases/ring-section"), o, over + ['time.integrator="verlet"', "time.n_c=10"])[0]
+        mu, s = cassini(os.path.join(ROOT, "cases/ring-section"), o, over + ['time.integrator="multirate"', "time.n_c=10"])
+        rb = rebound(o, n, 1000, 1000)
+        rows.append((tau, n, pl, mu, s.get("multirate", {}).get("contact_step_fraction", 0), rb))
+    print()
+    print(f"CPU-s per orbit, one rank, medians of {repeats} ({orbits} orbit runs):")
+    print(f"  cassini plain (velocity Verlet, N_c = 10): {statistics.median(plain):.1f}")
+    print(f"  cassini multi-rate:                        {statistics.median(multi):.1f}")
+    if peer:
+        print(f"  REBOUND (SEI, dt = T0/1000, hard spheres): {statistics.median(peer):.1f}")
+    if rows:
+        print("\noptical depth scan (ring-section in a 1 km x 1 km patch, no moonlet, N_c = 10, 0.1-orbit runs), CPU-s per orbit:")
+        print("  tau      N   plain  multi-rate  contact-step fraction  REBOUND")
+        for tau, n, pl, mu, f, rb in rows:
+            print(f"  {tau:<5} {n:6d} {pl:7.1f} {mu:11.1f} {f:22.4f}  {rb if rb is not None else 'n/a'}")
+    print(f"\nratio plain/multi-rate: {statistics.median(plain) / statistics.median(multi):.2f}")
+    if peer:
+        print(f"ratio multi-rate/REBOUND: {statistics.median(multi) / statistics.median(peer):.2f}")
+
+
+main()
