@@ -32,7 +32,7 @@ class HaloExchange {
   void migrate(ParticleStore& p, std::vector<HistoryEntry>& history);
   // Rebuilds the ghost region from scratch (owned particles must be inside their slab).
   void build_ghosts(ParticleStore& p);
-  // Refreshes ghost positions, velocities and spins from their owners.
+  // Refreshes ghost positions, velocities, spins and integrator modes from their owners.
   void update_ghosts(ParticleStore& p);
 
   std::int64_t removed = 0;

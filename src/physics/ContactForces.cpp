@@ -54,6 +54,9 @@ void ContactForces::force(Simulation& sim) {
   // Ascending slots (all, or the multi-rate integrator's targets): a mirror result is read
   // after its lower slot wrote it.
   const Simulation::TargetList targets = sim.target_list();
+  // Between the multi-rate integrator's long steps, a free particle's stored state is that of
+  // an earlier time: it is skipped (it is woken before it can touch anything).
+  const std::uint8_t* LAZY = sim.all_targets ? nullptr : p.mode.data();
   for (std::size_t t = 0; t < targets.count; ++t) {
     const std::size_t i = targets[t];
     if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up
@@ -63,6 +66,7 @@ void ContactForces::force(Simulation& sim) {
     Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
     for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
       const std::uint32_t j = partner[k];
+      if (LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
       if (j < i) {  // owned partner, already evaluated from j's side
         if (!T[k]) continue;
         const MirrorResult& r = OUT[k];

@@ -39,8 +39,9 @@ void MultiRateHill::Epicycle::advance(Vec3& x, Vec3& v) const {
 MultiRateHill::MultiRateHill(const Config& cfg, double dt)
     : dt_(dt), omega_(cfg.omega0()), omega_z_(cfg.vertical_frequency * cfg.omega0()),
       max_tidal_phase_(cfg.max_tidal_phase), substeps_(std::max(1L, std::lround(cfg.long_step / dt))),
-      planar_(cfg.planar), step_map_(omega_, omega_z_, dt, cfg.planar) {
+      planar_(cfg.planar) {
   long_step_ = double(substeps_) * dt;
+  skin_ = cfg.skin;
   if (cfg.has_module("moonlet")) {
     gm_ = kGravitationalConstant * cfg.moonlet_mass;
     moonlet_radius_ = cfg.moonlet_radius;
@@ -96,7 +97,8 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   while (last % substeps_ != 0 && !sim.is_output_step(last)) ++last;
   first_step_ = s;
   last_step_ = last;
-  t0_ = double(s - 1) * dt_;
+  t0_ = sim.time - dt_;  // the step about to be taken starts here; every particle is synchronised
+  t_ref_ = t0_;
   delta_ = double(last - s + 1) * dt_;
   // Ghosts as their owners are now (the last step's kicks and moves came after its update), so
   // that each side of a pair sees the same numbers whatever the rank count.
@@ -105,101 +107,182 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (p.mode[i] == kFree) p.v[i] += (0.5 * delta_) * moonlet_acceleration(p.x[i]);
   in_long_step_ = true;
-  post_rebuild(sim);
+  // Fast free particles are moved every step (exact map, cheap), so that the drift bound of the
+  // rest allows about a long step between rebuilds: epicycle speed above skin / (4 Delta).
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (p.mode[i] != kFree) continue;
+    const double w = 2 * (p.v[i][0] - 1.5 * omega_ * p.x[i][1]);
+    if (std::sqrt(w * w + p.v[i][1] * p.v[i][1]) > skin_ / (4 * delta_)) p.mode[i] = kDrifting;
+  }
+  make_lists(p);
+  watch_dirty_ = true;  // after this step's ghost update has carried the new modes
+  // Drift bound from here (the stream at t0 is one step short of this step's).
+  const double stream0 = sim.stream - (sim.domain.shear.enabled ? sim.domain.shear.rate * dt_ : 0.0);
+  free_drift_ = free_dy_ = free_speed_ = free_vz_ = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (p.mode[i] != kFree) continue;
+    const Vec3& x = p.x[i];
+    const Vec3& xb = p.x_build[i];
+    const Vec3& v = p.v[i];
+    const Vec3 d(x[0] - xb[0] - stream0 * xb[1], x[1] - xb[1], x[2] - xb[2]);
+    const double w = 2 * (v[0] - 1.5 * omega_ * x[1]);
+    free_drift_ = std::max(free_drift_, d.norm());
+    free_dy_ = std::max(free_dy_, std::abs(d[1]));
+    free_speed_ = std::max(free_speed_, std::sqrt(w * w + v[1] * v[1]));
+    if (!planar_) free_vz_ = std::max(free_vz_, std::hypot(v[2], omega_z_ * x[2]));
+  }
+}
+
+void MultiRateHill::make_lists(const ParticleStore& p) {
+  contact_.clear();
+  drifting_.clear();
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (on_contact_steps(p.mode[i])) contact_.push_back(static_cast<std::uint32_t>(i));
+    else if (p.mode[i] == kDrifting) drifting_.push_back(static_cast<std::uint32_t>(i));
+  }
+}
+
+void MultiRateHill::materialize(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const double tau = sim.time - t_ref_;
+  t_ref_ = sim.time;
+  if (tau <= 0) return;
+  const Epicycle E(omega_, omega_z_, tau, planar_);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.mode[i] == kFree) E.advance(p.x[i], p.v[i]);
+}
+
+void MultiRateHill::pre_rebuild(Simulation& sim) {
+  if (in_long_step_) materialize(sim);  // migration and the new list need the present positions
 }
 
 void MultiRateHill::post_rebuild(Simulation& sim) {
+  if (!in_long_step_) return;
+  ParticleStore& p = sim.particles;
+  // The new list can hold pairs the long step's classification never saw: each free particle
+  // looks again, over what is left of the long step (every particle is at the present time).
+  const double delta = delta_;
+  delta_ = t0_ + delta - sim.time;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (!on_contact_steps(p.mode[i]) && needs_contact_steps(sim, i)) {
+      p.mode[i] = kWoken;  // its state is the exact present one, as a particle woken in pre_force
+      ++wakes;
+      rebuild_woke_ = true;
+    }
+  delta_ = delta;
+  make_lists(p);
+  watch_dirty_ = true;
+  free_drift_ = free_dy_ = 0;  // built here (the epicycle speeds are invariants of the free motion)
+}
+
+void MultiRateHill::find_watched(const Simulation& sim) {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
-  contact_.clear();
   watch_.clear();
-  if (!in_long_step_) return;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (p.mode[i] != kFree) contact_.push_back(static_cast<std::uint32_t>(i));
-    else if (nl.start[i] != nl.start[i + 1]) watch_.push_back(static_cast<std::uint32_t>(i));
+  // Two free particles cannot touch within the long step (see the header): only partners on
+  // contact steps need watching.
+  for (std::size_t j = 0; j < p.nlocal; ++j) {
+    if (on_contact_steps(p.mode[j])) continue;
+    for (std::uint32_t k = nl.start[j]; k < nl.start[j + 1]; ++k)
+      if (on_contact_steps(p.mode[nl.partner[k]])) {
+        watch_.push_back(static_cast<std::uint32_t>(j));
+        break;
+      }
   }
+  ghosts_awake_ = 0;
+  for (std::size_t g = p.nlocal; g < p.size(); ++g) ghosts_awake_ += on_contact_steps(p.mode[g]);
+  watch_dirty_ = false;
 }
 
 void MultiRateHill::initial_integrate(Simulation& sim) {
   if (!in_long_step_) begin_long_step(sim);
   ParticleStore& p = sim.particles;
-  const double dt = dt_, h = 0.5 * dt_, stream = sim.stream, c_rot = rot_c_, s_rot = rot_s_;
+  const double dt = dt_, h = 0.5 * dt_, stream = sim.stream, c = rot_c_, s = rot_s_;
   const bool planar = planar_;
   Vec3* X = p.x.data();
   Vec3* V = p.v.data();
   const Vec3* F = p.f.data();
   const Vec3* XB = p.x_build.data();
   const double* IM = p.inv_mass.data();
-  const std::uint8_t* MODE = p.mode.data();
   double m0 = 0;
-  const std::size_t n = p.nlocal;
-  // The free map written out (planar and 3D) on local values, so that the loop stays in
-  // registers: it is most of a dilute ring's work.
-  const Epicycle& E = step_map_;
-  const double W = E.omega, s1 = E.s1, c1 = E.c1, ec = 1 - W * c1, es = W * s1, shear = 1.5 * W, T = E.t;
-  const double ax = 2 * s1 - 1.5 * T, cz = E.cz, sz = E.sz, wz = E.omega_z;
-  // Every particle takes the free map in one branch-free pass (it vectorises); the few on
-  // contact steps are put back first and take velocity Verlet's first half instead.
-  saved_.resize(contact_.size());
-  for (std::size_t c = 0; c < contact_.size(); ++c) saved_[c] = {X[contact_[c]], V[contact_[c]]};
-  for (std::size_t i = 0; i < n; ++i) {
-    const double y = X[i][1], vy = V[i][1], w0 = 2 * (V[i][0] - shear * y);
-    const double y1 = y + vy * s1 - w0 * c1;
-    const double x1 = X[i][0] + (shear * T * y + w0 * ax + 2 * vy * c1);
-    X[i][0] = x1;
-    X[i][1] = y1;
-    V[i][1] = vy * ec - w0 * es;
-    V[i][0] = 0.5 * (w0 * ec + vy * es) + shear * y1;
-    double z1 = X[i][2];
-    if (!planar) {
-      const double z = X[i][2], vz = V[i][2];
-      z1 = z * cz + vz * sz / wz;
-      X[i][2] = z1;
-      V[i][2] = vz * cz - z * wz * sz;
-    }
-    const double dx = x1 - XB[i][0] - stream * XB[i][1], dy = y1 - XB[i][1], dz = z1 - XB[i][2];
-    const double d2 = MODE[i] == kFree ? dx * dx + dy * dy + dz * dz : 0.0;
-    m0 = std::max(m0, d2);
-  }
-  for (std::size_t c = 0; c < contact_.size(); ++c) {  // velocity Verlet's first half, as VelocityVerlet
-    const std::size_t i = contact_[c];
-    X[i] = saved_[c].x;
-    V[i] = saved_[c].v;
+  for (const std::uint32_t i : contact_) {  // velocity Verlet's first half, as VelocityVerlet
     const double k = h * IM[i];
     const double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1];
-    V[i][0] = c_rot * vx + s_rot * vy;
-    V[i][1] = c_rot * vy - s_rot * vx;
+    V[i][0] = c * vx + s * vy;
+    V[i][1] = c * vy - s * vx;
     V[i][2] = planar ? 0.0 : V[i][2] + k * F[i][2];
     X[i] += dt * V[i];
     const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
     m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
   }
+  const Epicycle step(omega_, omega_z_, dt, planar);
+  for (const std::uint32_t i : drifting_) {
+    step.advance(X[i], V[i]);
+    const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
+    m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
+  }
+  // The free particles have not moved in memory: the farthest their epicycles can have taken
+  // them from the build position. |u_x| <= M/2, |u_y| <= M with M = |(2 u_x, u_y)| invariant,
+  // and the flow at the particle differs from the flow at its build position by gamma |dy|.
+  if (contact_.size() + drifting_.size() < p.nlocal) {
+    const double tau = sim.time - t_ref_, M = free_speed_, rate = sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0;
+    const double ux = 0.5 * M + rate * (free_dy_ + M * tau);
+    const double bound = free_drift_ + std::sqrt(ux * ux + M * M + free_vz_ * free_vz_) * tau;
+    m0 = std::max(m0, bound * bound);
+  }
   sim.max_drift2 = m0;
   if (p.rotation)
     for (const std::uint32_t i : contact_) p.omega[i] += (h * p.inv_inertia[i]) * p.torque[i];
   contact_particle_steps += static_cast<long long>(contact_.size());
-  free_particle_steps += static_cast<long long>(n - contact_.size());
+  free_particle_steps += static_cast<long long>(p.nlocal - contact_.size());
 }
 
 void MultiRateHill::pre_force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
-  bool woke = false;
+  const bool last = sim.step_count == last_step_;
+  if (!watch_dirty_) {  // a ghost joined the contact steps: its free partners here need watching
+    std::size_t awake = 0;
+    for (std::size_t g = p.nlocal; g < p.size(); ++g) awake += on_contact_steps(p.mode[g]);
+    watch_dirty_ = awake != ghosts_awake_;
+  }
+  if (watch_dirty_) find_watched(sim);
+  // Wake-ups, decided on the modes as they were at the step's start (the same on any rank count).
+  woken_.clear();
+  const double tau = sim.time - t_ref_;
+  const Epicycle now(omega_, omega_z_, tau, planar_);
   for (const std::uint32_t j : watch_) {
+    Vec3 xj = p.x[j], vj = p.v[j];
+    if (p.mode[j] == kFree) now.advance(xj, vj);
     for (std::uint32_t k = nl.start[j]; k < nl.start[j + 1]; ++k) {
       const std::uint32_t i = nl.partner[k];
-      const double gap = (p.x[j] - p.x[i]).norm() - (p.radius[i] + p.radius[j]);
-      if (gap >= 4 * (p.v[j] - p.v[i]).norm() * dt_) continue;
-      p.mode[j] = kWoken;
-      ++wakes;
+      if (!on_contact_steps(p.mode[i])) continue;
+      const Vec3& xi = p.x[i];
+      const Vec3& vi = p.v[i];
+      const double gap = (xj - xi).norm() - (p.radius[i] + p.radius[j]);
+      if (gap >= 4 * (vj - vi).norm() * dt_) continue;
+      woken_.push_back(j);
       wakes_touching += gap < 0;
-      woke = true;
       break;
     }
   }
-  if (woke) post_rebuild(sim);
-  sim.all_targets = sim.step_count == last_step_;
-  if (!sim.all_targets) sim.targets = contact_;
+  for (const std::uint32_t j : woken_) {
+    if (p.mode[j] == kFree) now.advance(p.x[j], p.v[j]);
+    p.mode[j] = kWoken;
+  }
+  wakes += static_cast<long>(woken_.size());
+  if (last) materialize(sim);  // every particle gets forces at the long step's end
+  // Ghosts must show the woken (and, at the end, the moved) particles before the forces.
+  int changed = !woken_.empty() || last || rebuild_woke_, any = changed;
+  rebuild_woke_ = false;
+  if (sim.domain.nranks > 1 && !last) MPI_Allreduce(&changed, &any, 1, MPI_INT, MPI_MAX, sim.domain.comm);
+  if (any) sim.halo.update_ghosts(p);
+  if (!woken_.empty()) {
+    make_lists(p);
+    find_watched(sim);  // the woken's free partners: checked from the next step, as on another rank
+  }
+  sim.all_targets = last;
+  if (!last) sim.targets = contact_;
 }
 
 void MultiRateHill::final_integrate(Simulation& sim) {
@@ -224,7 +307,7 @@ void MultiRateHill::final_integrate(Simulation& sim) {
   }
   if (sim.step_count != last_step_) return;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (p.mode[i] != kFree) continue;
+    if (on_contact_steps(p.mode[i])) continue;
     p.v[i] += (0.5 * delta_) * moonlet_acceleration(p.x[i]);
     if (moonlet_) {
       const Vec3& x = p.x[i];

@@ -9,29 +9,35 @@
 //     neighbour-list partner or of the moonlet during Delta (margins below), or if the
 //     moonlet's tide sqrt(G M / r^3) Delta exceeds time.max_tidal_phase; FREE otherwise.
 //   - free particles get half of the long step's kick from the moonlet's gravity, Delta/2 a(x).
-// Every step dt, free particles move on the exact solution of the linear Hill equations (the
-// epicycle: tide plus Coriolis, so the ring's shear and epicycles carry no step error at all);
-// particles on contact steps take velocity Verlet steps with every force, as the plain scheme.
-// At the long step's end free particles get the other half kick, Delta/2 a(x(t + Delta)):
-// kick-drift-kick with an exact drift, the symplectic epicycle integrator of ring codes.
+// Free particles are not touched between long steps: their stored state stays that of the time
+// t_ref (the long step's start, or the last neighbour-list rebuild), and the exact solution of
+// the linear Hill equations (the epicycle: tide plus Coriolis, so the ring's shear and epicycles
+// carry no step error at all) brings them forward when needed: at a rebuild (migration and the
+// new list need positions) and at the long step's end. Particles on contact steps take velocity
+// Verlet steps with every force, as the plain scheme. At the long step's end free particles get
+// the other half kick, Delta/2 a(x(t + Delta)): kick-drift-kick with an exact drift, the
+// symplectic epicycle integrator of ring codes. A step's cost is then that of the few particles
+// on contact steps, plus a bound: the neighbour list's skin test takes, for the free particles,
+// the largest displacement their epicycles can have made since t_ref (speed bounds from each
+// epicycle's invariant |(2 u_x, u_y)|), so the list stays valid without moving them.
 //
 // Nothing is missed by the classification: before each step's forces every free particle with a
-// neighbour-list partner checks its gap to each partner, and joins the contact steps (is
-// "woken") when the gap is below 4 |v_rel| dt, i.e. a few steps before the contact begins, at
-// the latest when the plain scheme would see the overlap. Its state then is exact, and its
-// moonlet impulse is corrected to the time it spent free. The neighbour list is kept valid for
-// everyone by the usual skin test (free particles are moved every step, so their drift counts),
-// and the ghosts, Lees-Edwards images, migration and snapshots work as with the plain scheme.
-//
-// The margins of the classification only decide how much work is done, not what is computed:
-// a pair's straight-line approach is padded by (3 Omega^2 |dy| + Omega_z^2 |dz| + 2 Omega |dv|
-// + |a_m,i| + |a_m,j|) Delta^2 (the relative acceleration the straight line ignores), and
-// the moonlet's surface by (|v| + (G M / R^2 + 3 Omega^2 |y| + 2 Omega |v|) Delta) Delta.
+// partner on contact steps (owned or ghost; ghosts carry the mode) computes its present position
+// and its gap to that partner, and joins the contact steps ("is woken") when the gap is below
+// 4 |v_rel| dt, i.e. a few steps before the contact begins, at the latest when the plain scheme
+// would see the overlap. Its state then is exact, and its moonlet impulse is corrected to the
+// time it spent free. Two free particles cannot meet within a long step of K >= 8 steps: the
+// classification's margin exceeds the wake distance (smaller K: every free particle with a
+// partner is checked). Decisions are made from each particle's own side with the modes as of
+// the step's start (wake-ups are sent to the ghosts before the forces), so results are the
+// same on any rank count. Lees-Edwards crossings, ghosts, migration and snapshots (at long-step
+// ends) work as with the plain scheme.
 #include <cstdint>
 #include <vector>
 
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ParticleStore.hpp"
 
 namespace cassini {
 
@@ -42,6 +48,7 @@ class MultiRateHill : public Module {
   MultiRateHill(const Config& cfg, double dt);
   std::string name() const override;
   unsigned stages() const override { return kInitialIntegrate | kPreForce | kFinalIntegrate | kRebuild; }
+  void pre_rebuild(Simulation& sim) override;
   void setup(Simulation& sim) override;
   void initial_integrate(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
@@ -67,8 +74,16 @@ class MultiRateHill : public Module {
   long missed = 0;         // free particles found touching the moonlet at a long step's end (0 expected)
 
  private:
-  enum Mode : std::uint8_t { kFree = 0, kContact = 1, kWoken = 2 };
+  // kFree: stored state of time t_ref; kDrifting: free, but on a fast epicycle (from a moonlet
+  // encounter), so moved every step by the exact map to keep the drift bound of the others tight.
+  enum Mode : std::uint8_t { kFree = 0, kContact = 1, kWoken = 2, kDrifting = 3 };
+  static bool on_contact_steps(std::uint8_t m) { return m == kContact || m == kWoken; }
   void begin_long_step(Simulation& sim);
+  // Moves the free particles from t_ref to now (exact epicycle) and records, for the drift
+  // bound, their displacement since the last build and their epicycle speeds.
+  void materialize(Simulation& sim);
+  void find_watched(const Simulation& sim);
+  void make_lists(const ParticleStore& p);
   bool needs_contact_steps(const Simulation& sim, std::size_t i) const;
   Vec3 moonlet_acceleration(const Vec3& x) const;
   void publish(Simulation& sim) const;
@@ -78,16 +93,23 @@ class MultiRateHill : public Module {
   bool planar_;
   double gm_ = 0, moonlet_radius_ = 0;
   const Moonlet* moonlet_ = nullptr;
-  Epicycle step_map_;
   double rot_c_, rot_s_;  // Coriolis rotation over dt/2 for the contact steps
 
   bool in_long_step_ = false;
   long first_step_ = 0, last_step_ = 0;  // steps of the current long step (first advances from t0)
   double t0_ = 0, delta_ = 0;
   std::vector<std::uint32_t> contact_;  // owned slots on contact steps (ascending)
-  std::vector<std::uint32_t> watch_;    // free owned slots with neighbour-list partners (ascending)
-  struct State { Vec3 x, v; };
-  std::vector<State> saved_;            // scratch: contact-step particles before the free pass
+  std::vector<std::uint32_t> watch_;    // free owned slots with a partner on contact steps (ascending)
+  std::vector<std::uint32_t> woken_;    // scratch
+  std::vector<std::uint32_t> drifting_; // owned slots in mode kDrifting (ascending)
+  double skin_;
+  double t_ref_ = 0;                    // time of the free particles' stored state
+  // Drift bound of the free particles since t_ref: displacement from the build position then,
+  // |y - y_build| then, largest in-plane epicycle speed |(2 u_x, u_y)| and vertical one.
+  double free_drift_ = 0, free_dy_ = 0, free_speed_ = 0, free_vz_ = 0;
+  std::size_t ghosts_awake_ = 0;        // ghosts on contact steps at the last check
+  bool watch_dirty_ = true;
+  bool rebuild_woke_ = false;  // post_rebuild woke particles: the ghosts must hear of it
 };
 
 }  // namespace cassini
