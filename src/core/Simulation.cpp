@@ -167,6 +167,7 @@ void Simulation::step() {
   const double next_time = (step_count + 1) * dt;  // from the step count: no accumulated round-off
   stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
   max_drift2 = 0;
+  max_speed = -1;
   ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
   {

@@ -70,6 +70,9 @@ class Simulation {
   // largest squared displacement since the last rebuild relative to the imposed flow
   // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).
   double stream = 0, max_drift2 = 0;
+  // An integrator may also give a bound on every owned particle's speed relative to the
+  // imposed flow this step (-1: none); the tunnelling guard then needs no scan.
+  double max_speed = -1;
 
   // The owned particles that get forces this step (ascending slots), or all of them. A
   // multi-rate integrator narrows it between its long steps (Module::pre_force). A force

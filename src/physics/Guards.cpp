@@ -29,6 +29,7 @@ void Guards::initial_integrate(Simulation& sim) {
   const double bound = std::sqrt(sim.max_drift2) + std::sqrt(last_drift2_);
   last_drift2_ = sim.max_drift2;
   if (bound * bound <= 0.98 * step_limit2_) return;  // 2 %: the flow's change across y is in d too
+  if (sim.max_speed >= 0 && (sim.dt * sim.max_speed) * (sim.dt * sim.max_speed) <= step_limit2_) return;
   // Scan: the velocity now is the half-step velocity the drift just used.
   const ParticleStore& p = sim.particles;
   std::size_t worst = 0;
@@ -103,9 +104,17 @@ void Guards::end_of_step(Simulation& sim) {
       for (int k = 0; k < 8; ++k) s[k] += q[j + k];
     for (; j < m; ++j) s[0] += q[j];
   };
-  add(p.x, p.nlocal);
-  add(p.v, p.nlocal);
-  if (p.rotation) add(p.omega, p.nlocal);
+  if (sim.all_targets) {
+    add(p.x, p.nlocal);
+    add(p.v, p.nlocal);
+    if (p.rotation) add(p.omega, p.nlocal);
+  } else {  // between a multi-rate integrator's long steps only its targets took forces; all are scanned at its end
+    for (const std::uint32_t i : sim.targets) {
+      s[0] += p.x[i].sum();
+      s[1] += p.v[i].sum();
+      if (p.rotation) s[2] += p.omega[i].sum();
+    }
+  }
   bool bad = !std::isfinite(s[0] + s[1] + s[2] + s[3] + s[4] + s[5] + s[6] + s[7]);
   for (int d = 0; d < sim.domain.dims && !bad; ++d) {
     if (sim.domain.boundary[d] != Boundary::Wall) continue;

@@ -204,7 +204,12 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
   const Vec3* F = p.f.data();
   const Vec3* XB = p.x_build.data();
   const double* IM = p.inv_mass.data();
-  double m0 = 0;
+  double m0 = 0, u2 = 0;  // largest drift^2 and |v - flow|^2 of the particles moved here
+  const double rate = sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0;
+  auto speed2 = [&](std::size_t i) {
+    const double ux = V[i][0] - rate * X[i][1];
+    return ux * ux + V[i][1] * V[i][1] + V[i][2] * V[i][2];
+  };
   for (const std::uint32_t i : contact_) {  // velocity Verlet's first half, as VelocityVerlet
     const double k = h * IM[i];
     const double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1];
@@ -214,23 +219,27 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
     X[i] += dt * V[i];
     const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
     m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
+    u2 = std::max(u2, speed2(i));
   }
   const Epicycle step(omega_, omega_z_, dt, planar);
   for (const std::uint32_t i : drifting_) {
     step.advance(X[i], V[i]);
     const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
     m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
+    u2 = std::max(u2, speed2(i));
   }
   // The free particles have not moved in memory: the farthest their epicycles can have taken
   // them from the build position. |u_x| <= M/2, |u_y| <= M with M = |(2 u_x, u_y)| invariant,
   // and the flow at the particle differs from the flow at its build position by gamma |dy|.
   if (contact_.size() + drifting_.size() < p.nlocal) {
-    const double tau = sim.time - t_ref_, M = free_speed_, rate = sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0;
+    const double tau = sim.time - t_ref_, M = free_speed_;
     const double ux = 0.5 * M + rate * (free_dy_ + M * tau);
     const double bound = free_drift_ + std::sqrt(ux * ux + M * M + free_vz_ * free_vz_) * tau;
     m0 = std::max(m0, bound * bound);
+    u2 = std::max(u2, 1.25 * M * M + free_vz_ * free_vz_);  // |u_x| <= M/2, |u_y| <= M
   }
   sim.max_drift2 = m0;
+  sim.max_speed = std::sqrt(u2);
   if (p.rotation)
     for (const std::uint32_t i : contact_) p.omega[i] += (h * p.inv_inertia[i]) * p.torque[i];
   contact_particle_steps += static_cast<long long>(contact_.size());
