@@ -29,6 +29,33 @@ init = "none"
 end = 1.0
 )";
 
+// A small propeller patch: Hill frame, moonlet, planar, Lees-Edwards (1,500 particles in 1 km^2).
+inline const char* kPropellerPatch = R"(
+seed = 3
+modules = ["contact", "hill", "moonlet"]
+[domain]
+lo = [-500.0, -500.0, -10.0]
+hi = [500.0, 500.0, 10.0]
+boundary = ["periodic", "lees_edwards", "periodic"]
+planar = true
+[moonlet]
+mass = 1.27e10
+radius = 150.0
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 20.0
+e = 0.25
+[particles]
+init = "random"
+count = 1500
+shear_flow = true
+dispersion = 0.01
+[time]
+n_c = 50
+end = 1.0e6
+)";
+
 inline Config config_from(const std::string& text, const std::vector<std::string>& overrides = {}) {
   CaseFile cf = CaseFile::parse(text, "test.toml", overrides);
   return read_config(cf);

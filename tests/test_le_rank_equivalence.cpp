@@ -72,32 +72,6 @@ n_c = 50
 end = 1.0
 )";
 
-// A small propeller: Hill frame, moonlet, planar, Lees-Edwards.
-const char* kRing = R"(
-seed = 3
-modules = ["contact", "hill", "moonlet"]
-[domain]
-lo = [-500.0, -500.0, -10.0]
-hi = [500.0, 500.0, 10.0]
-boundary = ["periodic", "lees_edwards", "periodic"]
-planar = true
-[moonlet]
-mass = 1.27e10
-radius = 150.0
-[[species]]
-density = 500.0
-radius = 2.0
-t_c = 20.0
-e = 0.25
-[particles]
-init = "random"
-count = 1500
-shear_flow = true
-dispersion = 0.01
-[time]
-n_c = 50
-end = 1.0e6
-)";
 
 }  // namespace
 
@@ -114,7 +88,7 @@ TEST(LeesEdwardsRanks, FrictionalShearedGasSlabsAlongY) {
 
 TEST(LeesEdwardsRanks, PropellerPatchWithMoonlet) {
   // offset after 11,000 steps of 0.4 s: 1.5 Omega0 x 1000 m x 4400 s = 1015 m > Lx
-  compare_rank_counts(kRing, {}, 11000, 1000.0);
+  compare_rank_counts(kPropellerPatch, {}, 11000, 1000.0);
 }
 
 TEST(LeesEdwardsRanks, MoreRanksThanCells) {
@@ -131,5 +105,5 @@ TEST(LeesEdwardsRanks, FrictionalShearedGasMetisCells) {
 TEST(LeesEdwardsRanks, PropellerPatchMultiRate) {
   // The multi-rate integrator: classification and wake-ups are made from each particle's own
   // side, so they too are the same on any rank count (long steps of 50 steps).
-  compare_rank_counts(kRing, {"time.integrator=\"multirate\"", "time.long_step=20.0"}, 11000, 1000.0);
+  compare_rank_counts(kPropellerPatch, {"time.integrator=\"multirate\"", "time.long_step=20.0"}, 11000, 1000.0);
 }

@@ -191,42 +191,17 @@ TEST(Snapshot, TruncatedFileIsReportedNotMisread) {
 TEST(Snapshot, MultiRateRingRestartsBitwiseAtALongStepBoundary) {
   // Snapshots of the multi-rate integrator fall on long-step ends (output steps end a long
   // step), where every particle is synchronised: the restart reclassifies and continues alike.
-  const std::string ring = R"(
-seed = 5
-modules = ["contact", "hill", "moonlet"]
-[domain]
-lo = [-500.0, -500.0, -10.0]
-hi = [500.0, 500.0, 10.0]
-boundary = ["periodic", "lees_edwards", "periodic"]
-planar = true
-[moonlet]
-mass = 1.27e10
-radius = 150.0
-[[species]]
-density = 500.0
-radius = 2.0
-t_c = 4.0
-e = 0.25
-[particles]
-init = "random"
-count = 2000
-shear_flow = true
-dispersion = 0.01
-[time]
-n_c = 10
-end = 1.0e6
-integrator = "multirate"
-long_step = 20.0
-)";
+  const std::vector<std::string> ring = {"seed=5", "species.0.t_c=4.0", "particles.count=2000", "time.n_c=10",
+                                         "time.integrator=\"multirate\"", "time.long_step=20.0"};
   const std::string dir = scratch();
-  auto a = make_sim(ring);
+  auto a = make_sim(kPropellerPatch, ring);
   a->setup();
   for (int s = 0; s < 2000; ++s) a->step();  // 40 long steps of 50
   const std::string file = write_snapshot(*a, dir, "# case text");
   for (int s = 0; s < 3000; ++s) a->step();
   const StateById uninterrupted = gather_state(*a, true);
   const long wakes = a->find<MultiRateHill>()->wakes;
-  auto b = make_sim(ring);
+  auto b = make_sim(kPropellerPatch, ring);
   read_snapshot(*b, file);
   b->setup();
   for (int s = 0; s < 3000; ++s) b->step();
