@@ -33,7 +33,14 @@ void compare_rank_counts(const std::string& text, const std::vector<std::string>
     MPI_Comm_split(MPI_COMM_WORLD, rank < k ? 0 : MPI_UNDEFINED, rank, &sub);
     if (sub == MPI_COMM_NULL) continue;
     double offset = 0;
-    const StateById s = run(text, over, sub, steps, &offset);
+    StateById s;
+    // A guard stops every rank of `sub` together; caught here, so that all ranks still meet at
+    // the next split (a test that throws on some ranks only would hang the others).
+    try {
+      s = run(text, over, sub, steps, &offset);
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << k << " rank(s): " << e.what();
+    }
     MPI_Comm_free(&sub);
     if (rank != 0) continue;
     EXPECT_GT(offset, sweep) << "the offset must sweep the box";
