@@ -95,7 +95,6 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   const long s = sim.step_count;
   long last = s;
   while (last % substeps_ != 0 && !sim.is_output_step(last)) ++last;
-  first_step_ = s;
   last_step_ = last;
   t0_ = sim.time - dt_;  // the step about to be taken starts here; every particle is synchronised
   t_ref_ = t0_;

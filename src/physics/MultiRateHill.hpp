@@ -96,7 +96,7 @@ class MultiRateHill : public Module {
   double rot_c_, rot_s_;  // Coriolis rotation over dt/2 for the contact steps
 
   bool in_long_step_ = false;
-  long first_step_ = 0, last_step_ = 0;  // steps of the current long step (first advances from t0)
+  long last_step_ = 0;  // the current long step ends after this step
   double t0_ = 0, delta_ = 0;
   std::vector<std::uint32_t> contact_;  // owned slots on contact steps (ascending)
   std::vector<std::uint32_t> watch_;    // free owned slots with a partner on contact steps (ascending)
