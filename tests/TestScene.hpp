@@ -1,7 +1,9 @@
 #pragma once
 // Small helpers to build a scene from an inline case text in tests.
+#include <cstdio>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -55,6 +57,16 @@ dispersion = 0.01
 n_c = 50
 end = 1.0e6
 )";
+
+// The scene with the first species' constant e replaced by the Bridges law at v_c (m/s).
+inline std::string with_bridges(std::string text, double v_c) {
+  const auto at = text.find("\ne = ");
+  if (at == std::string::npos) throw std::logic_error("with_bridges: the scene has no 'e = ' line");
+  const auto end = text.find('\n', at + 1);
+  char law[96];
+  std::snprintf(law, sizeof law, "\nrestitution = \"bridges\"\nv_c = %.17g", v_c);
+  return text.replace(at, end - at, law);
+}
 
 inline Config config_from(const std::string& text, const std::vector<std::string>& overrides = {}) {
   CaseFile cf = CaseFile::parse(text, "test.toml", overrides);

@@ -401,3 +401,135 @@ end = 1.0
   EXPECT_NEAR(spin / v, 1.0, 1e-3) << "rolling without slip";
   EXPECT_NEAR(sim->particles.v[i][2], 0.0, 1e-6) << "no bouncing";
 }
+
+namespace {
+// Bridges et al. (1984), written out here independently of the code: e = (u / v_c)^-0.234,
+// capped at 1 for impacts slower than v_c.
+double bridges(double u, double v_c) { return std::min(1.0, std::pow(u / v_c, -0.234)); }
+}  // namespace
+
+TEST(ContactLaw, BridgesRestitutionFollowsEachImpactsSpeed) {
+  // restitution = "bridges": each impact's e comes from its normal speed u, fixed for the whole
+  // contact, at fixed t_c. Head-on at u = 0.2 m/s with v_c chosen so that u / v_c spans the cap
+  // (u <= v_c: elastic) and five decades of the power law (e 0.81 ... 0.067). Exact scheme: e
+  // and t_c to round-off at fractional N_c and any onset phase (the constant-e bar); Verlet:
+  // within its first-order error 3 |ln e| / N_c (VerletSchemeRestitutionErrorIsFirstOrder) plus
+  // its second-order error of the elastic contact, below (pi / N_c)^2 / 10.
+  const double u = 0.2, tc = 1e-4;
+  for (double ratio : {0.5, 1.0, 2.5, 37.0, 1e3, 1e5}) {
+    const double e = bridges(u, u / ratio);
+    for (const std::string scheme : {"exact", "verlet"})
+      for (double nc : {10.37, 50.0})
+        for (double phase : {0.13, 0.71}) {
+          char dt[40];
+          std::snprintf(dt, sizeof dt, "time.dt=%.17g", tc / nc);
+          auto sim = make_sim(with_bridges(kPair, u / ratio), {dt, "contact.scheme=\"" + scheme + "\""});
+          const double a = 0.001, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+          const Collision c = collide(*sim, m, m, 0, phase);
+          const double second = std::pow(std::numbers::pi / nc, 2) / 10;
+          const double tol = scheme == "exact" ? 1e-9 : 3.0 * std::abs(std::log(e)) / nc + second;
+          EXPECT_NEAR(c.restitution / e, 1, tol) << scheme << ": u/v_c = " << ratio << ", N_c = " << nc << ", phase " << phase;
+          if (scheme == "exact") EXPECT_NEAR(c.duration / tc, 1, 1e-9) << "u/v_c = " << ratio << ", N_c = " << nc;
+        }
+  }
+}
+
+TEST(ContactLaw, BridgesRestitutionAtTheMoonletAndAPlaneWall) {
+  // A particle hitting an immovable surface (the moonlet's; a domain wall) takes the Bridges
+  // law of its own species with m_ij = m_i: e(u) at each of three impact speeds, exact scheme.
+  const double v_c = 1e-3;
+  for (double v : {5e-4, 0.05, 0.5}) {  // u / v_c = 0.5 (elastic), 50, 500
+    const std::string moonlet = with_bridges(R"(
+modules = ["contact", "moonlet"]
+[domain]
+lo = [-400.0, -400.0, -400.0]
+hi = [400.0, 400.0, 400.0]
+[moonlet]
+mass = 1.0
+radius = 150.0
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 1.0
+e = 0.5
+[particles]
+init = "none"
+[time]
+n_c = 23.7
+end = 1.0
+)", v_c);
+    auto sim = make_sim(moonlet);
+    const double a = 2.0, m = 500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+    const Vec3 dir = Vec3(1, 2, 2) / 3.0;
+    const double gap = 0.37 * v * sim->dt;
+    sim->particles.add(0, 0, a, m, (150.0 + a + gap) * dir, -v * dir);
+    sim->setup();
+    bool touched = false, parted = false;
+    for (int s = 0; s < 10000 && !parted; ++s) {
+      sim->step();
+      const double d = sim->particles.x[0].norm();
+      if (d < 150.0 + a) touched = true;
+      if (touched && d >= 150.0 + a) {
+        sim->step();  // the exact scheme's exit step
+        EXPECT_NEAR(sim->particles.v[0].dot(dir) / v, bridges(v, v_c), 1e-9) << "moonlet, impact at " << v << " m/s";
+        parted = true;
+      }
+    }
+    EXPECT_TRUE(parted) << "moonlet, impact at " << v << " m/s";
+
+    // The same impact on the floor of a box with walls in z (no gravity).
+    const std::string box = with_bridges(R"(
+modules = ["contact", "walls"]
+[domain]
+lo = [-10.0, -10.0, 0.0]
+hi = [10.0, 10.0, 20.0]
+boundary = ["periodic", "periodic", "wall"]
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 1.0
+e = 0.5
+[particles]
+init = "none"
+[time]
+n_c = 23.7
+end = 1.0
+)", v_c);
+    auto w = make_sim(box);
+    w->particles.add(0, 0, a, m, Vec3(0, 0, a + gap), Vec3(0, 0, -v));
+    w->setup();
+    touched = parted = false;
+    for (int s = 0; s < 10000 && !parted; ++s) {
+      w->step();
+      if (w->particles.x[0][2] < a) touched = true;
+      if (touched && w->particles.x[0][2] >= a) {
+        w->step();
+        EXPECT_NEAR(w->particles.v[0][2] / v, bridges(v, v_c), 1e-9) << "floor, impact at " << v << " m/s";
+        parted = true;
+      }
+    }
+    EXPECT_TRUE(parted) << "floor, impact at " << v << " m/s";
+  }
+}
+
+TEST(ContactLaw, BridgesCaseKeysAreChecked) {
+  // The Bridges law replaces e: giving both, an unknown law, v_c without the law, or unlike
+  // species with different laws and no [[pair]] table saying which, is refused by key.
+  auto refused = [](const std::string& text, const std::vector<std::string>& over, const std::string& key) {
+    try {
+      config_from(text, over);
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+      return;
+    }
+    ADD_FAILURE() << "accepted, expected an error naming " << key;
+  };
+  const std::string ice = with_bridges(kPair, 1e-4);
+  EXPECT_NO_THROW(config_from(ice));
+  refused(ice, {"species.0.e=0.5"}, "species[0].e");
+  refused(kPair, {"species.0.restitution=\"ice\""}, "species[0].restitution");
+  refused(kPair, {"species.0.v_c=1e-4"}, "species[0].v_c");
+  const std::string rock = "\n[[species]]\nname = \"rock\"\ndensity = 3000.0\nradius = 0.001\nt_c = 1.0e-4\ne = 0.5\n";
+  refused(ice + rock, {}, "pair");
+  EXPECT_NO_THROW(config_from(ice + rock + "[[pair]]\nspecies = [\"species0\", \"rock\"]\ne = 0.3\n"));
+}

@@ -114,3 +114,10 @@ TEST(LeesEdwardsRanks, PropellerPatchMultiRate) {
   // side, so they too are the same on any rank count (long steps of 50 steps).
   compare_rank_counts(kPropellerPatch, {"time.integrator=\"multirate\"", "time.long_step=20.0"}, 11000, 1000.0);
 }
+
+TEST(LeesEdwardsRanks, PropellerPatchBridgesMultiRate) {
+  // The Bridges law in the ring (impacts of ~1e-3 m/s against v_c = 1e-4 m/s: e ~ 0.6) under
+  // the multi-rate integrator: impact speeds travel with the contacts on any rank count.
+  compare_rank_counts(with_bridges(kPropellerPatch, 1e-4), {"time.integrator=\"multirate\"", "time.long_step=20.0"},
+                      11000, 1000.0);
+}

@@ -64,6 +64,11 @@ end = 1.0
 
 TEST(RankEquivalence, FrictionalGasWithWallsSlabsAlongX) { compare(kScene, {}, 2000); }
 
+TEST(RankEquivalence, BridgesRestitutionGasWithWalls) {
+  // Contacts carry their impact speed (pairs across rank boundaries and migrations, walls).
+  compare(with_bridges(kScene, 0.05), {}, 2000);
+}
+
 TEST(RankEquivalence, FrictionalGasWithWallsSlabsAlongY) { compare(kScene, {"domain.slab_axis=\"y\""}, 2000); }
 
 TEST(RankEquivalence, DenseFrictionalPackingWithManyContactsPerParticle) {

@@ -26,6 +26,10 @@ double Config::min_radius() const {
 
 double Config::omega0() const { return std::sqrt(kGravitationalConstant * saturn_mass / std::pow(orbit_radius, 3)); }
 
+bool Config::velocity_dependent_restitution() const {
+  return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.v_c > 0; });
+}
+
 bool Config::has_module(const std::string& name) const {
   return std::find(modules.begin(), modules.end(), name) != modules.end();
 }
@@ -101,8 +105,19 @@ Config read_config(CaseFile& f) {
       if (s.radius_max < s.radius_min) f.fail(p + "radius_max", "a value >= radius_min");
     }
     s.t_c = positive(f, p + "t_c");
-    s.e = f.number(p + "e");
-    if (!(s.e > 0 && s.e <= 1)) f.fail(p + "e", "a restitution coefficient in (0, 1]");
+    const std::string law = f.string(p + "restitution", "constant");
+    if (law == "bridges") {
+      if (f.has(p + "e"))
+        f.fail(p + "e", "no e with restitution = \"bridges\" (each impact's e comes from its speed: (u/v_c)^-0.234)");
+      s.v_c = positive(f, p + "v_c", kBridgesVc);
+      s.e = 1;
+    } else if (law == "constant") {
+      if (f.has(p + "v_c")) f.fail(p + "v_c", "v_c only with restitution = \"bridges\"");
+      s.e = f.number(p + "e");
+      if (!(s.e > 0 && s.e <= 1)) f.fail(p + "e", "a restitution coefficient in (0, 1]");
+    } else {
+      f.fail(p + "restitution", "\"constant\" (a fixed e) or \"bridges\" (e = (u/v_c)^-0.234 per impact)");
+    }
     s.mu_s = non_negative(f, p + "mu_s", 0.0);
     s.mu_d = non_negative(f, p + "mu_d", s.mu_s);
     if (s.mu_d > s.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
@@ -122,8 +137,11 @@ Config read_config(CaseFile& f) {
     for (std::size_t b = 0; b < n; ++b) {
       const Species &s = c.species[a], &t = c.species[b];
       c.pairs[a * n + b] = {0.5 * (s.t_c + t.t_c), 0.5 * (s.e + t.e), std::min(s.mu_s, t.mu_s), std::min(s.mu_d, t.mu_d),
-                            0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio)};
+                            0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio),
+                            0.5 * (s.v_c + t.v_c)};
     }
+  // Unlike species with different restitution laws have no mean: a [[pair]] table must say.
+  std::vector<bool> law_set(n * n, false);
   for (std::size_t k = 0, np = f.has("pair") ? f.array_size("pair") : 0; k < np; ++k) {
     const std::string p = "pair[" + std::to_string(k) + "].";
     const auto names = f.strings(p + "species");
@@ -136,8 +154,21 @@ Config read_config(CaseFile& f) {
     }
     PairParameters pp = c.pairs[idx[0] * n + idx[1]];
     pp.t_c = positive(f, p + "t_c", pp.t_c);
-    pp.e = f.number(p + "e", pp.e);
-    if (!(pp.e > 0 && pp.e <= 1)) f.fail(p + "e", "a restitution coefficient in (0, 1]");
+    // A table that gives e means a constant e; one that gives neither keeps the mixed law.
+    const std::string law = f.string(p + "restitution", pp.v_c > 0 && !f.has(p + "e") ? "bridges" : "constant");
+    if (law == "bridges") {
+      if (f.has(p + "e")) f.fail(p + "e", "no e with restitution = \"bridges\"");
+      pp.v_c = positive(f, p + "v_c", pp.v_c > 0 ? pp.v_c : kBridgesVc);
+      pp.e = 1;
+    } else if (law == "constant") {
+      if (f.has(p + "v_c")) f.fail(p + "v_c", "v_c only with restitution = \"bridges\"");
+      pp.v_c = 0;
+      pp.e = f.number(p + "e", pp.e);
+      if (!(pp.e > 0 && pp.e <= 1)) f.fail(p + "e", "a restitution coefficient in (0, 1]");
+    } else {
+      f.fail(p + "restitution", "\"constant\" or \"bridges\"");
+    }
+    law_set[idx[0] * n + idx[1]] = law_set[idx[1] * n + idx[0]] = f.has(p + "restitution") || f.has(p + "e");
     pp.mu_s = non_negative(f, p + "mu_s", pp.mu_s);
     pp.mu_d = non_negative(f, p + "mu_d", std::min(pp.mu_d, pp.mu_s));
     if (pp.mu_d > pp.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
@@ -146,6 +177,11 @@ Config read_config(CaseFile& f) {
     if (pp.mu_s > 0 && !(pp.kt_ratio > 0)) f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 with friction");
     c.pairs[idx[0] * n + idx[1]] = c.pairs[idx[1] * n + idx[0]] = pp;
   }
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = a + 1; b < n; ++b)
+      if ((c.species[a].v_c > 0) != (c.species[b].v_c > 0) && !law_set[a * n + b])
+        f.fail("pair", "a [[pair]] table for species '" + c.species[a].name + "' and '" + c.species[b].name +
+                           "' giving restitution (one uses the Bridges law, the other a constant e)");
 
   // ---- modules
   c.modules = f.strings("modules", std::vector<std::string>{"contact"});
@@ -190,6 +226,9 @@ Config read_config(CaseFile& f) {
   if (c.planar && c.boundary[2] == Boundary::Wall) f.fail("domain.boundary", "no z walls in a planar scene");
 
   if (c.has_module("channel")) read_channel_config(f, c);
+  if (c.has_module("channel") && c.velocity_dependent_restitution())
+    f.fail("species", "restitution = \"constant\" with module \"channel\" (the Bridges law is for ice rings: "
+                      "particle pairs, plane walls and the moonlet)");
 
   // ---- contact
   c.clip_normal = f.boolean("contact.clip_normal", false);
@@ -230,11 +269,13 @@ Config read_config(CaseFile& f) {
   // Verlet 0.64 t_c at e -> 1, 0.29 t_c at e = 0.1 (verlet_stability_limit); the exact scheme
   // follows a lone contact at any step, but its onset step assumes the contact lasts longer
   // than two steps (t_c / 2).
+  // Under the Bridges law Verlet's limit is taken at e = 0.05, an impact 3.6e5 v_c fast.
+  auto lowest_e = [](double v_c, double e) { return v_c > 0 ? 0.05 : e; };
   double dt_stable = 1e300;
   for (const auto& s : c.species)
-    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * s.t_c : verlet_stability_limit(s.t_c, s.e));
+    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * s.t_c : verlet_stability_limit(s.t_c, lowest_e(s.v_c, s.e)));
   for (const auto& q : c.pairs)
-    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * q.t_c : verlet_stability_limit(q.t_c, q.e));
+    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * q.t_c : verlet_stability_limit(q.t_c, lowest_e(q.v_c, q.e)));
   if (c.dt >= dt_stable)
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt below the stability limit " + std::to_string(dt_stable) +

@@ -21,7 +21,10 @@ struct Species {
   double density = 0;
   double radius_min = 0, radius_max = 0;  // equal for monodisperse; uniform in between otherwise
   double t_c = 0;                         // contact duration
-  double e = 1;                           // normal restitution
+  double e = 1;                           // normal restitution (restitution = "constant")
+  // restitution = "bridges": each impact's e from its normal speed u, the law of frosty ice
+  // (Bridges et al. 1984): e(u) = min(1, (u / v_c)^-0.234). 0: constant e.
+  double v_c = 0;
   double mu_s = 0, mu_d = 0;              // Coulomb static and dynamic friction
   double kt_ratio = 2.0 / 7.0;            // k_t = kt_ratio k
   double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
@@ -33,7 +36,12 @@ struct Species {
 // its species' own values.
 struct PairParameters {
   double t_c = 0, e = 1, mu_s = 0, mu_d = 0, kt_ratio = 2.0 / 7.0, gammat_ratio = 2.0 / 7.0;
+  double v_c = 0;  // > 0: Bridges restitution (e set per impact; see Species::v_c)
 };
+// Bridges et al. (1984): e = (u / v_c)^-kBridgesExponent for impacts faster than v_c.
+inline constexpr double kBridgesExponent = 0.234;
+// Bridges' v_c for frosty ice at 155 K, 0.0077 cm/s (the default of restitution = "bridges").
+inline constexpr double kBridgesVc = 7.7e-5;
 
 inline constexpr double kGravitationalConstant = 6.674e-11;
 
@@ -113,6 +121,7 @@ struct Config {
   ChannelConfig channel;  // modules channel, drag, inlet, clog
 
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
+  bool velocity_dependent_restitution() const;  // some pair's e is set per impact (Bridges)
   double max_radius() const;
   // Largest centre distance at which two particles interact, plus the skin: the neighbour
   // list's and the halo's range.

@@ -21,6 +21,7 @@ void ParticleStore::resize(std::size_t n) {
     inv_inertia.resize(n);
     wall_xi.resize(n * walls, Vec3::Zero());
   }
+  if (impacts) wall_impact.resize(n * walls, 0.0);
 }
 
 void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3& pos, const Vec3& vel) {
@@ -40,6 +41,8 @@ void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3
     inv_inertia[i] = 1.0 / (0.4 * m * a * a);  // solid sphere: I = 2/5 m a^2
     for (int w = 0; w < walls; ++w) wall_xi[i * walls + w].setZero();
   }
+  if (impacts)
+    for (int w = 0; w < walls; ++w) wall_impact[i * walls + w] = 0;
 }
 
 void ParticleStore::copy(std::size_t from, std::size_t to) {
@@ -59,6 +62,8 @@ void ParticleStore::copy(std::size_t from, std::size_t to) {
     inv_inertia[to] = inv_inertia[from];
     for (int w = 0; w < walls; ++w) wall_xi[to * walls + w] = wall_xi[from * walls + w];
   }
+  if (impacts)
+    for (int w = 0; w < walls; ++w) wall_impact[to * walls + w] = wall_impact[from * walls + w];
 }
 
 void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
@@ -90,12 +95,13 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
     apply(inv_inertia, 1);
     apply(wall_xi, walls);
   }
+  if (impacts) apply(wall_impact, walls);
   nlocal = order.size();
 }
 
 std::size_t ParticleStore::packed_size() const {
-  // id, species, radius, mass, x, v, x_build, f, mode (+ omega, torque, wall_xi)
-  return 5 + 12 + (rotation ? 6 + 3 * walls : 0);
+  // id, species, radius, mass, x, v, x_build, f, mode (+ omega, torque, wall_xi) (+ wall_impact)
+  return 5 + 12 + (rotation ? 6 + 3 * walls : 0) + (impacts ? walls : 0);
 }
 
 void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
@@ -114,6 +120,8 @@ void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
     buf.insert(buf.end(), torque[i].data(), torque[i].data() + 3);
     for (int w = 0; w < walls; ++w) buf.insert(buf.end(), wall_xi[i * walls + w].data(), wall_xi[i * walls + w].data() + 3);
   }
+  if (impacts)
+    for (int w = 0; w < walls; ++w) buf.push_back(wall_impact[i * walls + w]);
 }
 
 std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o) {
@@ -133,6 +141,8 @@ std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o)
     o += 6;
     for (int w = 0; w < walls; ++w, o += 3) wall_xi[i * walls + w] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
   }
+  if (impacts)
+    for (int w = 0; w < walls; ++w) wall_impact[i * walls + w] = buf[o++];
   return o;
 }
 

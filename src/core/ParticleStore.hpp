@@ -16,6 +16,7 @@ namespace cassini {
 struct ParticleStore {
   bool rotation = false;  // fixed at start: true iff some species has friction
   int walls = 0;          // number of wall planes (one tangential history slot each)
+  bool impacts = false;   // fixed at start: true iff some restitution is set per impact (Bridges)
 
   std::size_t nlocal = 0;
 
@@ -32,6 +33,7 @@ struct ParticleStore {
   std::vector<double> inv_inertia;    // rotation only
   std::vector<Vec3> x_build;          // position at the last neighbour-list build
   std::vector<Vec3> wall_xi;          // rotation only: tangential spring per (particle, wall)
+  std::vector<double> wall_impact;    // impacts only: impact normal speed per (particle, wall), 0: none
   // The integrator's mode of the particle, carried through migration (multi-rate: on the
   // free epicycle or on contact steps; see MultiRateHill). 0 for the plain integrator.
   std::vector<std::uint8_t> mode;

@@ -104,6 +104,12 @@ void vec3_column(hid_t g, const std::string& name, const Rows& r, const std::vec
     for (int c = 0; c < 3; ++c) col[3 * k + c] = (recs[k].*member)[c];
   rows_dataset(g, name, H5T_NATIVE_DOUBLE, r.total, r.offset, r.rows, 3, col.data(), dxpl, false);
 }
+template <class R>
+void double_column(hid_t g, const std::string& name, const Rows& r, const std::vector<R>& recs, double R::*member, hid_t dxpl) {
+  std::vector<double> col(recs.size());
+  for (std::size_t k = 0; k < recs.size(); ++k) col[k] = recs[k].*member;
+  rows_dataset(g, name, H5T_NATIVE_DOUBLE, r.total, r.offset, r.rows, 1, col.data(), dxpl, false);
+}
 
 double id_bits(std::int64_t id) { double d; std::memcpy(&d, &id, 8); return d; }
 std::int64_t bits_id(double d) { std::int64_t i; std::memcpy(&i, &d, 8); return i; }
@@ -120,8 +126,9 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   const Decomposition& dom = sim.domain;
   const int P = dom.nranks;
   const int nw = p.rotation ? p.walls : 0;
-  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], body force
-  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + 3;
+  const int ni = p.impacts ? p.walls : 0;
+  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], [wall_impact * ni], body force
+  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + ni + 3;
   std::vector<Vec3> body(p.nlocal, Vec3::Zero());  // the non-contact forces, for cassini-cg (3.34)
   for (const auto& m : sim.modules) m->add_body_forces(sim, body);
 
@@ -140,6 +147,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       r.insert(r.end(), p.torque[i].data(), p.torque[i].data() + 3);
       for (int w = 0; w < nw; ++w) r.insert(r.end(), p.wall_xi[i * nw + w].data(), p.wall_xi[i * nw + w].data() + 3);
     }
+    for (int w = 0; w < ni; ++w) r.push_back(p.wall_impact[i * ni + w]);
     r.insert(r.end(), body[i].data(), body[i].data() + 3);
   }
   std::vector<int> sc(P), rc(P), sd(P), rd(P);
@@ -166,7 +174,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   std::vector<std::int64_t> ids(n);
   std::vector<std::int32_t> species(n);
   std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n), w(p.rotation ? 3 * n : 0),
-      t(p.rotation ? 3 * n : 0), wx(3 * nw * n), bf(3 * n);
+      t(p.rotation ? 3 * n : 0), wx(3 * nw * n), wi(ni * n), bf(3 * n);
   for (std::size_t k = 0; k < n; ++k) {
     const double* r = &in[order[k] * width];
     ids[k] = bits_id(r[0]);
@@ -180,6 +188,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       if (p.rotation) { w[3 * k + c] = r[13 + c]; t[3 * k + c] = r[16 + c]; }
     }
     for (int c = 0; c < 3 * nw; ++c) wx[3 * nw * k + c] = r[19 + c];
+    for (int c = 0; c < ni; ++c) wi[ni * k + c] = r[width - 3 - ni + c];
     for (int c = 0; c < 3; ++c) bf[3 * k + c] = r[width - 3 + c];
   }
 
@@ -215,6 +224,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       element(grains, "torque", H5T_NATIVE_DOUBLE, N, off, rows, 3, t.data(), step, time, dxpl);
       if (nw > 0) element(grains, "wall_xi", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nw, wx.data(), step, time, dxpl);
     }
+    if (ni > 0) element(grains, "wall_impact", H5T_NATIVE_DOUBLE, N, off, rows, ni, wi.data(), step, time, dxpl);
     {
       Handle box = group(grains, "box");
       attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
@@ -249,7 +259,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
         else small_dataset(g, "value", H5T_NATIVE_INT32, {1}, nm[0] == 'd' ? &direction : &normal, dxpl);
       }
     }
-    {  // contact springs (only with friction): each rank writes its own block
+    {  // contact history (springs with friction, impact speeds under Bridges): each rank its own block
       std::vector<HistoryEntry> springs;
       if (sim.contact) sim.contact->springs(sim, springs);
       Handle cg = group(file, "contacts");
@@ -257,6 +267,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       id_column(cg, "owner", sr, springs, &HistoryEntry::owner, dxpl);
       id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
       vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
+      double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
       // Pair forces for stress (each pair once; contacts and lubrication): ids, position of i,
       // branch r_i - r_j, force on i. Wall contacts: particle id, contact point, branch, force.
       std::vector<PairForce> pairs;
@@ -420,6 +431,10 @@ void read_snapshot(Simulation& sim, const std::string& path) {
       read_rows(file, g + "torque/value", H5T_NATIVE_DOUBLE, lo, n, 3, t.data(), dxpl);
       if (nw > 0) read_rows(file, g + "wall_xi/value", H5T_NATIVE_DOUBLE, lo, n, 3 * nw, wx.data(), dxpl);
     }
+    const int ni = p.impacts ? p.walls : 0;
+    std::vector<double> wi(ni * n, 0.0);
+    if (ni > 0 && H5Lexists(file, (g + "wall_impact").c_str(), H5P_DEFAULT) > 0)
+      read_rows(file, g + "wall_impact/value", H5T_NATIVE_DOUBLE, lo, n, ni, wi.data(), dxpl);
     double state[3];
     std::int64_t step = 0;
     read_rows(file, "parameters/time_offset_dt", H5T_NATIVE_DOUBLE, 0, 3, 1, state, dxpl, false);
@@ -431,6 +446,11 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     read_rows(file, "contacts/owner", H5T_NATIVE_INT64, 0, M, 1, owner.data(), dxpl, false);
     read_rows(file, "contacts/partner", H5T_NATIVE_INT64, 0, M, 1, partner.data(), dxpl, false);
     read_rows(file, "contacts/xi", H5T_NATIVE_DOUBLE, 0, M, 3, xi.data(), dxpl, false);
+    // Impact speeds (Bridges restitution) since they were stored; older snapshots have none and
+    // their contacts take their present approach speed (ContactForces::force).
+    std::vector<double> impact(M, 0.0);
+    if (H5Lexists(file, "contacts/impact_speed", H5P_DEFAULT) > 0)
+      read_rows(file, "contacts/impact_speed", H5T_NATIVE_DOUBLE, 0, M, 1, impact.data(), dxpl, false);
 
     p.resize(0);
     for (hsize_t k = 0; k < n; ++k) {
@@ -443,6 +463,7 @@ void read_snapshot(Simulation& sim, const std::string& path) {
         for (int q = 0; q < nw; ++q)
           p.wall_xi[k * nw + q] = Vec3(wx[3 * nw * k + 3 * q], wx[3 * nw * k + 3 * q + 1], wx[3 * nw * k + 3 * q + 2]);
       }
+      for (int q = 0; q < ni; ++q) p.wall_impact[k * ni + q] = wi[ni * k + q];
     }
     p.nlocal = p.size();
     std::vector<std::int64_t> mine(ids);
@@ -450,7 +471,7 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     sim.history.clear();
     for (hsize_t k = 0; k < M; ++k)
       if (std::binary_search(mine.begin(), mine.end(), owner[k]))
-        sim.history.push_back({owner[k], partner[k], Vec3(xi[3 * k], xi[3 * k + 1], xi[3 * k + 2])});
+        sim.history.push_back({owner[k], partner[k], Vec3(xi[3 * k], xi[3 * k + 1], xi[3 * k + 2]), impact[k]});
     if (std::abs(state[2] - sim.dt) > 1e-12 * sim.dt)
       throw ConfigError(path + ": snapshot dt " + std::to_string(state[2]) + " differs from the case's dt " +
                         std::to_string(sim.dt) + " (a restart must keep the time step)");

@@ -96,6 +96,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
         for (auto h = b; h != e; ++h) {
           buf.push_back(id_bits(h->partner));
           buf.insert(buf.end(), h->xi.data(), h->xi.data() + 3);
+          buf.push_back(h->impact);
         }
       } else {
         ++removed;
@@ -112,8 +113,8 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
     o = p.unpack(in, o);
     const std::int64_t owner = p.id[p.size() - 1];
     const auto nh = static_cast<std::size_t>(in[o++]);
-    for (std::size_t h = 0; h < nh; ++h, o += 4)
-      history.push_back({owner, bits_id(in[o]), Vec3(in[o + 1], in[o + 2], in[o + 3])});
+    for (std::size_t h = 0; h < nh; ++h, o += 5)
+      history.push_back({owner, bits_id(in[o]), Vec3(in[o + 1], in[o + 2], in[o + 3]), in[o + 4]});
     p.nlocal = p.size();
   }
   for (std::size_t i = 0; i < p.nlocal; ++i)

@@ -16,10 +16,11 @@
 
 namespace cassini {
 
-// Tangential-spring history of one contact, carried across rebuilds and migrations.
+// History of one contact, carried across rebuilds and migrations.
 struct HistoryEntry {
   std::int64_t owner, partner;
-  Vec3 xi;
+  Vec3 xi;              // tangential spring (friction)
+  double impact = 0;    // normal speed of the contact's impact (Bridges restitution)
 };
 
 class HaloExchange {

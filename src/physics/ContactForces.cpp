@@ -42,6 +42,16 @@ void ContactForces::force(Simulation& sim) {
   Vec3* TORQUE = fric ? p.torque.data() : nullptr;
   const bool exact = law_.exact();
   const double dt = law_.dt();
+  // Bridges restitution: each contact's law follows from its impact speed, kept per entry.
+  const bool vdep = law_.velocity_dependent();
+  if (vdep && impact_.size() != nl.size()) impact_.assign(nl.size(), 0.0);
+  double* U = vdep ? impact_.data() : nullptr;
+  PairLaw contact_law;  // scratch for a contact's own law
+  auto law_of = [&](int a, int b, std::uint32_t k) -> const PairLaw& {
+    if (!vdep || !(law_.law(a, b).v_c > 0)) return law_.law(a, b);
+    contact_law = law_.at_impact(a, b, U[k]);
+    return contact_law;
+  };
   shifts_.clear();
   // A contact with a partner's image across a Lees-Edwards boundary does work at the image's
   // velocity jump +-gamma_dot L_y: the boundary's share of the shear work (the rest comes with
@@ -106,18 +116,26 @@ void ContactForces::force(Simulation& sim) {
             const Vec3 n = d / r;
             const double mj = M[j];
             const double m = mi * mj / (mi + mj);
-            const NormalStep ns = law_.normal(law_.law(si, S[j]), m, R - r, (vi - V[j]).dot(n));
+            const double vn = (vi - V[j]).dot(n);
+            const NormalStep ns = law_.normal(law_of(si, S[j], k), m, R - r, vn);
             if (ns.fn != 0 || ns.shift != 0) {
               const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
               fsum += f;
               dsum += shift;
               if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
-              if (mk != kNoMirror) {
+            }
+            if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
+              const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(law_of(S[j], si, mk), m, R - r, vn) : ns;
+              if (nj.fn != 0 || nj.shift != 0) {
                 T[mk] = kParted;
-                OUT[mk].f = -f;
-                OUT[mk].shift = ns.shift;
+                OUT[mk].f = -(nj.fn * n);
+                OUT[mk].shift = nj.shift;
               }
             }
+          }
+          if (vdep) {
+            U[k] = 0;
+            if (mk != kNoMirror) U[mk] = 0;
           }
         }
         continue;
@@ -125,6 +143,7 @@ void ContactForces::force(Simulation& sim) {
       // A ghost pair is counted by the lower id, wherever it lives; an owned pair once, here.
       const bool onset = !T[k] && (mk != kNoMirror || ID[i] < ID[j]);
       onsets += onset;
+      const bool fresh = !T[k];  // not touching at the last evaluation
       T[k] = 1;
       const double r = std::sqrt(r2);
       const Vec3 n = d / r;
@@ -132,8 +151,13 @@ void ContactForces::force(Simulation& sim) {
       const double mj = M[j];
       const double m = mi * mj / (mi + mj);
       Vec3 vrel = vi - V[j];
-      if (onset) {  // the impact: speed u of the free approach (the velocity of the last step)
-        const double u = -vrel.dot(n), e = law_.law(si, S[j]).e;
+      // The impact speed u of the free approach (the velocity of the last step). A contact found
+      // touching without a recorded impact (initial overlaps, a snapshot from before impact
+      // speeds were stored) takes its present approach speed.
+      if (vdep && (fresh || U[k] == 0)) U[k] = std::max(-vrel.dot(n), 0.0);
+      const PairLaw& L = law_of(si, S[j], k);
+      if (onset) {
+        const double u = -vrel.dot(n), e = L.e;
         impact_loss_ += 0.5 * (1 - e * e) * m * u * u;
         impact_virial_ += ((1 + e) * m * u * R) * (n * n.transpose());
       }
@@ -146,7 +170,7 @@ void ContactForces::force(Simulation& sim) {
       // evaluated on its own spring, as j would.
       const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k];
       double shift = 0;
-      const Vec3 f = law_.force(law_.law(si, S[j]), m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift);
+      const Vec3 f = law_.force(L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift);
       fsum += f;
       if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
       // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
@@ -158,22 +182,28 @@ void ContactForces::force(Simulation& sim) {
       if (frac > worst) { worst = frac; worst_id = ID[i]; }
       if (mk != kNoMirror) {  // j's side: every quantity negated, exactly as j would compute it
         T[mk] = 1;
+        // Impact speeds recorded by an independent two-sided evaluation (across a periodic
+        // boundary before a migration; the image's coordinates round differently) may differ
+        // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
+        if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
+        const bool own_law = vdep && U[mk] != U[k];
         MirrorResult& out = OUT[mk];
         out.frac = frac;
         out.shift = shift;
-        if (!fric) {
+        if (!fric && !own_law) {
           out.f = -f;
         } else {
           const Vec3 nj = -n;
           Vec3 ftj;
-          if (mirror_spring) {
+          if (mirror_spring && !own_law) {
             out.f = -f;
             ftj = -ft;
             XI[mk] = -XI[k];
           } else {
-            out.f = law_.force(law_.law(S[j], si), m, delta, nj, -vrel, &XI[mk], ftj);
+            const PairLaw Lj = own_law ? law_of(S[j], si, mk) : L;
+            out.f = law_.force(Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift);
           }
-          out.torque = (-A[j] * nj).cross(ftj);
+          if (fric) out.torque = (-A[j] * nj).cross(ftj);
         }
       }
     }
@@ -201,7 +231,7 @@ double ContactForces::elastic_energy(const Simulation& sim) const {
       const double R = p.radius[i] + p.radius[j], r = (p.x[i] - p.x[j]).norm();
       if (r >= R) continue;
       const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
-      const PairLaw& L = law_.law(p.species[i], p.species[j]);
+      const PairLaw L = entry_law(p.species[i], p.species[j], k);
       e += 0.25 * m * L.k_per_mass * (R - r) * (R - r);  // 1/2 k delta^2, half per side
       if (law_.friction()) e += 0.25 * L.kt_ratio * m * L.k_per_mass * xi_[k].squaredNorm();
     }
@@ -212,10 +242,20 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   out.clear();
-  if (!law_.friction() || nl.start.size() != p.nlocal + 1 || xi_.size() != nl.size()) return;
+  if (nl.start.size() != p.nlocal + 1) return;
+  const bool fric = law_.friction() && xi_.size() == nl.size();
+  const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k)
-      if (!xi_[k].isZero(0)) out.push_back({p.id[i], p.id[nl.partner[k]], xi_[k]});
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      const Vec3 xi = fric ? xi_[k] : Vec3::Zero();
+      const double u = vdep ? impact_[k] : 0.0;
+      if (!xi.isZero(0) || u != 0) out.push_back({p.id[i], p.id[nl.partner[k]], xi, u});
+    }
+}
+
+PairLaw ContactForces::entry_law(int a, int b, std::uint32_t k) const {
+  if (!(law_.law(a, b).v_c > 0) || k >= impact_.size()) return law_.law(a, b);
+  return law_.at_impact(a, b, impact_[k]);
 }
 
 void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
@@ -235,7 +275,7 @@ void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& o
       if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);  // id[i] < id[j], as in force()
       Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
       // The step already advanced the spring: report it as it stands (no second increment).
-      const Vec3 f = law_.force(law_.law(p.species[i], p.species[j]), m, R - r, n, vrel, fric ? &spring : nullptr, ft,
+      const Vec3 f = law_.force(entry_law(p.species[i], p.species[j], k), m, R - r, n, vrel, fric ? &spring : nullptr, ft,
                                 false);
       out.push_back({p.id[i], p.id[j], p.x[i], d, f});
     }
@@ -274,7 +314,7 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
 
 void ContactForces::pre_rebuild(Simulation& sim) {
   // Without a list yet (first rebuild, or after a restart) keep what is in the stash.
-  if (!law_.friction() || sim.neighbors.start.size() != sim.particles.nlocal + 1) return;
+  if (!keeps_history() || sim.neighbors.start.size() != sim.particles.nlocal + 1) return;
   springs(sim, sim.history);
 }
 
@@ -300,9 +340,10 @@ void ContactForces::post_rebuild(Simulation& sim) {
         touching_[k] = d.squaredNorm() < R * R;
       }
     }
-  if (!law_.friction()) return;
+  if (!keeps_history()) return;
   auto& stash = sim.history;
-  xi_.assign(nl.size(), Vec3::Zero());
+  if (law_.friction()) xi_.assign(nl.size(), Vec3::Zero());
+  if (law_.velocity_dependent()) impact_.assign(nl.size(), 0.0);
   auto before = [](const HistoryEntry& a, const HistoryEntry& b) {
     return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
   };
@@ -312,7 +353,10 @@ void ContactForces::post_rebuild(Simulation& sim) {
       if (!touching_[k]) continue;  // separated during the drift: the spring is gone
       const HistoryEntry key{p.id[i], p.id[nl.partner[k]], {}};
       auto it = std::lower_bound(stash.begin(), stash.end(), key, before);
-      if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) xi_[k] = it->xi;
+      if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) {
+        if (law_.friction()) xi_[k] = it->xi;
+        if (law_.velocity_dependent()) impact_[k] = it->impact;
+      }
     }
   stash.clear();
 }

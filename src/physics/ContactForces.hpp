@@ -15,7 +15,10 @@ namespace cassini {
 class ContactForces : public Module {
  public:
   ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
-  std::string name() const override { return law_.friction() ? "contact (LSD + friction)" : "contact (LSD)"; }
+  std::string name() const override { 
+    return std::string("contact (LSD") + (law_.friction() ? " + friction" : "") +
+           (law_.velocity_dependent() ? " + Bridges e(u)" : "") + ")";
+  }
   // The exact scheme moves pairs at its onset and exit steps, at the end of the step.
   unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
   void final_integrate(Simulation& sim) override;
@@ -25,7 +28,8 @@ class ContactForces : public Module {
   // boundary (see force()); with HaloExchange::shear_energy, the shear's whole work.
   double energy_input() const override { return boundary_work_; }
   void pre_rebuild(Simulation& sim) override;
-  // Tangential springs as (owner id, partner id, xi) for every owned contact with history.
+  // Contact history as (owner id, partner id, tangential spring xi, impact speed) for every
+  // owned contact that has some (a spring with friction, an impact speed under Bridges).
   void springs(const Simulation& sim, std::vector<HistoryEntry>& out) const;
   // Every contact once (springs unchanged).
   void pair_forces(const Simulation& sim, std::vector<PairForce>& out) const override;
@@ -68,11 +72,15 @@ class ContactForces : public Module {
   };
   static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, result in mirrored_
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
+  bool keeps_history() const { return law_.friction() || law_.velocity_dependent(); }
+  // The law of list entry k's contact (its own under the Bridges law).
+  PairLaw entry_law(int a, int b, std::uint32_t k) const;
 
   LinearSpringDashpot law_;
   std::vector<std::uint32_t> mirror_;
   std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
+  std::vector<double> impact_;  // Bridges law: impact normal speed per entry in contact (0: none)
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   PendingShifts shifts_;  // exact scheme: moves of this step
   double overlap_sum_ = 0;

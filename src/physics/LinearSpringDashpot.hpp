@@ -92,6 +92,8 @@ struct PairLaw {
   // "exact" scheme: the discrete constants and the oscillator (see the top of this file)
   double k_eff, gamma_eff, eta, omega, cos_w, sin_w, exp_eta;  // cos/sin(omega dt), exp(eta dt)
   double e;  // the pair's restitution
+  double t_c;
+  double v_c;  // > 0: e is set per impact by the Bridges law (LinearSpringDashpot::at_impact)
 };
 
 // The normal part of one evaluation: force along n (repulsive > 0), the overlap the pair is to
@@ -128,17 +130,55 @@ class LinearSpringDashpot {
         // Each pair its own t_c and e through its reduced mass (spec section 1); unlike pairs
         // mix their species' values unless a [[pair]] table sets them (Config::pair).
         const PairParameters& q = cfg.pair(a, b);
-        const double eta = -std::log(q.e) / q.t_c, omega = std::numbers::pi / q.t_c;
-        // Cancellation-free: 1 + rho^2 - 2 rho cos = (1 - rho)^2 + 4 rho sin^2(omega dt / 2).
-        const double rho = std::exp(-eta * dt), one_minus_rho = -std::expm1(-eta * dt);
-        const double half = std::sin(0.5 * omega * dt);
-        const double k_eff = (one_minus_rho * one_minus_rho + 4 * rho * half * half) / (dt * dt);
-        const double gamma_eff = -std::expm1(-2 * eta * dt) / dt;
-        table_[a * n_ + b] = {omega * omega + eta * eta, 2 * eta, q.kt_ratio, q.gammat_ratio, q.mu_s, q.mu_d,
-                              k_eff, gamma_eff, eta, omega, std::cos(omega * dt), std::sin(omega * dt),
-                              std::exp(eta * dt), q.e};
+        const double omega = std::numbers::pi / q.t_c;
+        PairLaw& L = table_[a * n_ + b];
+        L.kt_ratio = q.kt_ratio;
+        L.gammat_ratio = q.gammat_ratio;
+        L.mu_s = q.mu_s;
+        L.mu_d = q.mu_d;
+        L.omega = omega;
+        L.cos_w = std::cos(omega * dt);
+        L.sin_w = std::sin(omega * dt);
+        L.t_c = q.t_c;
+        L.v_c = q.v_c;
+        half_[a * n_ + b] = std::sin(0.5 * omega * dt);
+        set_damping(L, -std::log(q.e) / q.t_c, half_[a * n_ + b]);
+        L.e = q.e;
       }
+    velocity_dependent_ = cfg.velocity_dependent_restitution();
   }
+
+  // The damping rate eta (and what follows from it at fixed t_c) of a law; half =
+  // sin(omega dt / 2). Cancellation-free: 1 + rho^2 - 2 rho cos = (1 - rho)^2 + 4 rho half^2.
+  void set_damping(PairLaw& L, double eta, double half) const {
+    const double dt = dt_, omega = L.omega;
+    const double rho = std::exp(-eta * dt), one_minus_rho = -std::expm1(-eta * dt);
+    L.eta = eta;
+    L.k_per_mass = omega * omega + eta * eta;
+    L.gamma_per_mass = 2 * eta;
+    L.k_eff = (one_minus_rho * one_minus_rho + 4 * rho * half * half) / (dt * dt);
+    L.gamma_eff = -std::expm1(-2 * eta * dt) / dt;  // (1 - rho^2) / dt
+    L.exp_eta = std::exp(eta * dt);
+    L.e = std::exp(-eta * L.t_c);
+  }
+
+  // The law of one contact whose impact had normal speed u, for a pair whose restitution
+  // follows the Bridges law: e(u) = min(1, (u / v_c)^-0.234), t_c fixed (so k and gamma
+  // follow e, as in soft-sphere ring codes). Every quantity is a function of u alone, so the
+  // two sides of a pair (same u, bitwise) get the same law.
+  PairLaw at_impact(int a, int b, double u) const {
+    PairLaw L = table_[a * n_ + b];
+    const double eta = u > L.v_c ? kBridgesExponent * std::log(u / L.v_c) / L.t_c : 0.0;
+    set_damping(L, eta, half_[a * n_ + b]);
+    return L;
+  }
+  // The restitution the law gives an impact at normal speed u.
+  double restitution(int a, int b, double u) const {
+    const PairLaw& L = table_[a * n_ + b];
+    return L.v_c > 0 && u > L.v_c ? std::pow(u / L.v_c, -kBridgesExponent) : L.e;
+  }
+  // Some pair's restitution is set per impact: contacts then carry their impact speed.
+  bool velocity_dependent() const { return velocity_dependent_; }
 
   const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
   bool friction() const { return friction_; }
@@ -231,14 +271,26 @@ class LinearSpringDashpot {
   // own species). n: unit normal from the wall to the centre; delta: overlap; xi: the (particle,
   // wall) spring or nullptr without friction. torque receives the wall's torque on i.
   // shift (if given) receives the distance to move the particle along n at the end of the step.
+  // impact: the (particle, wall) impact speed under the Bridges law (ParticleStore::wall_impact):
+  // set by the first evaluation of a contact, cleared by its exit step; the caller clears it
+  // when a particle is away from the wall without an exit step.
   Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque,
-                  bool advance = true, double* shift = nullptr) const {
+                  bool advance = true, double* shift = nullptr, double* impact = nullptr) const {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
-    if (xi) vrel -= a * p.omega[i].cross(n);
     const int sp = p.species[i];
+    const PairLaw* L = &law(sp, sp);
+    PairLaw own;
+    if (L->v_c > 0) {
+      double u = impact ? *impact : 0.0;
+      if (u == 0 && delta > 0) u = std::max(-vrel.dot(n), 0.0);  // this contact's impact
+      own = at_impact(sp, sp, u);
+      L = &own;
+      if (impact && advance) *impact = delta > 0 ? u : 0.0;
+    }
+    if (xi) vrel -= a * p.omega[i].cross(n);
     double overlap_shift = 0;
-    const Vec3 f = force(law(sp, sp), p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift);
+    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift);
     if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
     if (xi) torque = (-a * n).cross(ft);  // frictionless walls exert no torque: skip the work
     else torque.setZero();
@@ -249,7 +301,9 @@ class LinearSpringDashpot {
   int n_;
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;
+  bool velocity_dependent_ = false;
   std::vector<PairLaw> table_;
+  std::vector<double> half_ = std::vector<double>(n_ * n_);  // sin(omega dt / 2) per pair
 };
 
 }  // namespace cassini

@@ -53,19 +53,26 @@ void Moonlet::force(Simulation& sim) {
     // With friction each particle keeps a tangential spring with the moonlet (its last wall
     // slot), reset when it lets go, as with any wall; the ring scene is frictionless.
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + slot_] : nullptr;
+    double* impact = p.impacts ? &p.wall_impact[i * p.walls + slot_] : nullptr;  // Bridges restitution
     if (d2 >= reach * reach || d2 == 0) {
       if (xi) xi->setZero();
       // The exact scheme's exit step: touching a step ago. A particle moves less than its radius
       // per step (the tunnelling guard), so only this shell needs the test.
       const double far = reach + A[i];
-      if (!exact || d2 == 0 || d2 >= far * far) continue;
+      if (!exact || d2 == 0 || d2 >= far * far) {
+        if (impact) *impact = 0;
+        continue;
+      }
     }
     const double d = std::sqrt(d2), delta = reach - d;
     const Vec3 normal = Vec3(x, y, z) / d;
-    if (delta <= 0 && delta + p.v[i].dot(normal) * dt <= 0) continue;
+    if (delta <= 0 && delta + p.v[i].dot(normal) * dt <= 0) {
+      if (impact) *impact = 0;
+      continue;
+    }
     Vec3 torque;
     double shift = 0;
-    F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift);
+    F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact);
     if (shift != 0) shifts_.add(i, shift * normal);
     if (delta <= 0) continue;
     if (fric) p.torque[i] += torque;
@@ -85,8 +92,9 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
     if (d >= radius_ + p.radius[i] || d == 0) continue;
     const bool fric = law_.friction();
     Vec3 xi = fric ? p.wall_xi[i * p.walls + slot_] : Vec3::Zero(), torque;
+    double impact = p.impacts ? p.wall_impact[i * p.walls + slot_] : 0.0;
     const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, fric ? &xi : nullptr, torque,
-                                   false);  // the step already advanced the spring
+                                   false, nullptr, &impact);  // the step already advanced the spring
     out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
   }
 }
