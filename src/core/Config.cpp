@@ -1,4 +1,5 @@
 #include "core/Config.hpp"
+#include "physics/HertzMindlin.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 #include <algorithm>
@@ -28,6 +29,10 @@ double Config::omega0() const { return std::sqrt(kGravitationalConstant * saturn
 
 bool Config::velocity_dependent_restitution() const {
   return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.v_c > 0; });
+}
+
+bool Config::hertz() const {
+  return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.e_star > 0; });
 }
 
 bool Config::has_module(const std::string& name) const {
@@ -104,7 +109,22 @@ Config read_config(CaseFile& f) {
       s.radius_max = positive(f, p + "radius_max");
       if (s.radius_max < s.radius_min) f.fail(p + "radius_max", "a value >= radius_min");
     }
-    s.t_c = positive(f, p + "t_c");
+    const std::string model = f.string(p + "model", "linear");
+    if (model == "hertz") {
+      s.youngs_modulus = positive(f, p + "youngs_modulus");
+      s.poisson_ratio = f.number(p + "poisson_ratio", 0.3);
+      if (!(s.poisson_ratio >= 0 && s.poisson_ratio < 0.5)) f.fail(p + "poisson_ratio", "a Poisson ratio in [0, 0.5)");
+      s.impact_speed = positive(f, p + "impact_speed");
+      if (f.has(p + "t_c"))
+        f.fail(p + "t_c", "no t_c with model = \"hertz\" (the contact lasts longer the slower the impact: give "
+                          "impact_speed, the fastest expected, and t_c follows)");
+    } else if (model == "linear") {
+      for (const char* k : {"youngs_modulus", "poisson_ratio", "impact_speed"})
+        if (f.has(p + k)) f.fail(p + k, std::string(k) + " only with model = \"hertz\"");
+      s.t_c = positive(f, p + "t_c");
+    } else {
+      f.fail(p + "model", "\"linear\" (spring-dashpot, t_c and e) or \"hertz\" (Hertz-Mindlin: youngs_modulus, poisson_ratio, e)");
+    }
     const std::string law = f.string(p + "restitution", "constant");
     if (law == "bridges") {
       if (f.has(p + "e"))
@@ -125,6 +145,12 @@ Config read_config(CaseFile& f) {
     s.gammat_ratio = non_negative(f, p + "gammat_ratio", 2.0 / 7.0);
     if (s.mu_s > 0 && !(s.kt_ratio > 0))  // a sliding spring is stretched to mu_d f_n / k_t
       f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 when the species has friction (mu_s > 0)");
+    if (s.youngs_modulus > 0) {
+      if (s.v_c > 0) f.fail(p + "restitution", "\"constant\" with model = \"hertz\"");
+      const double m = s.density * 4.0 / 3.0 * std::numbers::pi * std::pow(s.radius_min, 3);
+      const double E = hertz_e_star(s.youngs_modulus, s.poisson_ratio, s.youngs_modulus, s.poisson_ratio);
+      s.t_c = hertz_contact_time(0.5 * m, 0.5 * s.radius_min, E, s.impact_speed);
+    }
     for (const auto& other : c.species)
       if (other.name == s.name) f.fail(p + "name", "a name not used by another species");
     c.species.push_back(s);
@@ -139,6 +165,13 @@ Config read_config(CaseFile& f) {
       c.pairs[a * n + b] = {0.5 * (s.t_c + t.t_c), 0.5 * (s.e + t.e), std::min(s.mu_s, t.mu_s), std::min(s.mu_d, t.mu_d),
                             0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio),
                             0.5 * (s.v_c + t.v_c)};
+      if (s.youngs_modulus > 0 && t.youngs_modulus > 0) {
+        c.pairs[a * n + b].e_star = hertz_e_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
+        c.pairs[a * n + b].g_star = hertz_g_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
+      } else if ((s.youngs_modulus > 0) != (t.youngs_modulus > 0)) {
+        f.fail("species", "one contact model for all species (species '" + s.name + "' and '" + t.name +
+                              "' differ: a Hertz and a linear species have no common law)");
+      }
     }
   // Unlike species with different restitution laws have no mean: a [[pair]] table must say.
   std::vector<bool> law_set(n * n, false);

@@ -25,6 +25,10 @@ struct Species {
   // restitution = "bridges": each impact's e from its normal speed u, the law of frosty ice
   // (Bridges et al. 1984): e(u) = min(1, (u / v_c)^-0.234). 0: constant e.
   double v_c = 0;
+  // model = "hertz" (Hertz-Mindlin, physics/HertzMindlin.hpp): Young's modulus (Pa, > 0 marks
+  // the model) and Poisson ratio; t_c is then the Hertz duration of the fastest expected impact
+  // (impact_speed) between two of the smallest particles, which sets the time step.
+  double youngs_modulus = 0, poisson_ratio = 0, impact_speed = 0;
   double mu_s = 0, mu_d = 0;              // Coulomb static and dynamic friction
   double kt_ratio = 2.0 / 7.0;            // k_t = kt_ratio k
   double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
@@ -37,6 +41,7 @@ struct Species {
 struct PairParameters {
   double t_c = 0, e = 1, mu_s = 0, mu_d = 0, kt_ratio = 2.0 / 7.0, gammat_ratio = 2.0 / 7.0;
   double v_c = 0;  // > 0: Bridges restitution (e set per impact; see Species::v_c)
+  double e_star = 0, g_star = 0;  // > 0: Hertz-Mindlin effective moduli (see Species::youngs_modulus)
 };
 // Bridges et al. (1984): e = (u / v_c)^-kBridgesExponent for impacts faster than v_c.
 inline constexpr double kBridgesExponent = 0.234;
@@ -122,6 +127,7 @@ struct Config {
 
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
   bool velocity_dependent_restitution() const;  // some pair's e is set per impact (Bridges)
+  bool hertz() const;                           // some pair follows Hertz-Mindlin
   double max_radius() const;
   // Largest centre distance at which two particles interact, plus the skin: the neighbour
   // list's and the halo's range.

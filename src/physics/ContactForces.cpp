@@ -44,6 +44,7 @@ void ContactForces::force(Simulation& sim) {
   const double dt = law_.dt();
   // Bridges restitution: each contact's law follows from its impact speed, kept per entry.
   const bool vdep = law_.velocity_dependent();
+  const bool hertz = law_.hertz();
   if (vdep && impact_.size() != nl.size()) impact_.assign(nl.size(), 0.0);
   double* U = vdep ? impact_.data() : nullptr;
   PairLaw contact_law;  // scratch for a contact's own law
@@ -170,7 +171,8 @@ void ContactForces::force(Simulation& sim) {
       // evaluated on its own spring, as j would.
       const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k];
       double shift = 0;
-      const Vec3 f = law_.force(L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift);
+      const double reff = hertz ? ai * A[j] / (ai + A[j]) : 0.0;  // Hertz pairs' reduced radius
+      const Vec3 f = law_.force(L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff);
       fsum += f;
       if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
       // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
@@ -201,7 +203,7 @@ void ContactForces::force(Simulation& sim) {
             XI[mk] = -XI[k];
           } else {
             const PairLaw Lj = own_law ? law_of(S[j], si, mk) : L;
-            out.f = law_.force(Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift);
+            out.f = law_.force(Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff);
           }
           if (fric) out.torque = (-A[j] * nj).cross(ftj);
         }
@@ -232,7 +234,13 @@ double ContactForces::elastic_energy(const Simulation& sim) const {
       if (r >= R) continue;
       const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
       const PairLaw L = entry_law(p.species[i], p.species[j], k);
-      e += 0.25 * m * L.k_per_mass * (R - r) * (R - r);  // 1/2 k delta^2, half per side
+      const double delta = R - r;
+      if (L.e_star > 0) {  // Hertz: 8/15 E* sqrt(R*) delta^5/2, half per side (friction's share omitted)
+        const double reff = p.radius[i] * p.radius[j] / R;
+        e += 0.5 * (8.0 / 15.0) * L.e_star * std::sqrt(reff * delta) * delta * delta;
+        continue;
+      }
+      e += 0.25 * m * L.k_per_mass * delta * delta;  // 1/2 k delta^2, half per side
       if (law_.friction()) e += 0.25 * L.kt_ratio * m * L.k_per_mass * xi_[k].squaredNorm();
     }
   return e;
@@ -276,7 +284,7 @@ void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& o
       Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
       // The step already advanced the spring: report it as it stands (no second increment).
       const Vec3 f = law_.force(entry_law(p.species[i], p.species[j], k), m, R - r, n, vrel, fric ? &spring : nullptr, ft,
-                                false);
+                                false, nullptr, p.radius[i] * p.radius[j] / R);
       out.push_back({p.id[i], p.id[j], p.x[i], d, f});
     }
 }

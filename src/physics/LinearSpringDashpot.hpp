@@ -53,6 +53,7 @@
 #include "core/Config.hpp"
 #include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
+#include "physics/HertzMindlin.hpp"
 
 namespace cassini {
 
@@ -94,6 +95,7 @@ struct PairLaw {
   double e;  // the pair's restitution
   double t_c;
   double v_c;  // > 0: e is set per impact by the Bridges law (LinearSpringDashpot::at_impact)
+  double e_star, g_star, c_hertz;  // e_star > 0: Hertz-Mindlin (HertzMindlin.hpp), c from e
 };
 
 // The normal part of one evaluation: force along n (repulsive > 0), the overlap the pair is to
@@ -144,6 +146,10 @@ class LinearSpringDashpot {
         half_[a * n_ + b] = std::sin(0.5 * omega * dt);
         set_damping(L, -std::log(q.e) / q.t_c, half_[a * n_ + b]);
         L.e = q.e;
+        L.e_star = q.e_star;
+        L.g_star = q.g_star;
+        L.c_hertz = q.e_star > 0 ? hertz_damping_constant(q.e) : 0.0;
+        hertz_ = hertz_ || q.e_star > 0;
       }
     velocity_dependent_ = cfg.velocity_dependent_restitution();
   }
@@ -179,6 +185,8 @@ class LinearSpringDashpot {
   }
   // Some pair's restitution is set per impact: contacts then carry their impact speed.
   bool velocity_dependent() const { return velocity_dependent_; }
+  // Some pair follows Hertz-Mindlin: callers pass the reduced radius (reff).
+  bool hertz() const { return hertz_; }
 
   const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
   bool friction() const { return friction_; }
@@ -186,9 +194,18 @@ class LinearSpringDashpot {
   double dt() const { return dt_; }
 
   // The normal law for overlap delta (may be <= 0: a pair that parted this step) and normal
-  // velocity vn = vrel . n (< 0 approaching) of the last half step; m: reduced mass.
-  NormalStep normal(const PairLaw& L, double m, double delta, double vn) const {
+  // velocity vn = vrel . n (< 0 approaching) of the last half step; m: reduced mass; reff:
+  // reduced radius (Hertz pairs only).
+  NormalStep normal(const PairLaw& L, double m, double delta, double vn, double reff = 0) const {
     NormalStep r;
+    if (L.e_star > 0) {  // Hertz: velocity Verlet under either scheme
+      if (delta <= 0) return r;
+      const double K = (4.0 / 3.0) * L.e_star * std::sqrt(reff * delta);  // f = K delta
+      r.fn = K * delta - L.c_hertz * std::sqrt(K * m) * vn;
+      if (clip_ && r.fn < 0) r.fn = 0;
+      r.contact_time = dt_;
+      return r;
+    }
     if (!exact_) {
       if (delta <= 0) return r;
       r.fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
@@ -231,10 +248,11 @@ class LinearSpringDashpot {
   // Returns the total force; ft receives the tangential part (for the torque).
   // advance = false evaluates the force of the spring as it stands, without this step's
   // increment v_t dt: for reports (snapshots, stress) after the step already advanced it.
+  // reff: the reduced radius, used by Hertz pairs only.
   [[gnu::always_inline]] Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi,
-                                     Vec3& ft, bool advance = true, double* shift = nullptr) const {
+                                     Vec3& ft, bool advance = true, double* shift = nullptr, double reff = 0) const {
     const double vn = vrel.dot(n);
-    const NormalStep ns = normal(L, m, delta, vn);
+    const NormalStep ns = normal(L, m, delta, vn, reff);
     if (shift) *shift = ns.shift;
     const double fn = ns.fn;
     Vec3 f = fn * n;
@@ -253,7 +271,11 @@ class LinearSpringDashpot {
       if (slen2 > 0) s *= std::sqrt(len2 / slen2);
     }
     if (advance) s += vt * ns.contact_time;
-    const double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
+    double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
+    if (L.e_star > 0) {  // Mindlin: k_t = 8 G* sqrt(R* delta), g_t = 2 sqrt(5/6) beta sqrt(k_t m), beta = c / sqrt(5)
+      kt = 8 * L.g_star * std::sqrt(reff * delta);
+      gt = 2 / std::sqrt(6.0) * L.c_hertz * std::sqrt(kt * m);
+    }
     ft = -kt * s - gt * vt;
     const double cap = L.mu_s * std::max(fn, 0.0);
     const double ft2 = ft.squaredNorm();
@@ -290,7 +312,8 @@ class LinearSpringDashpot {
     }
     if (xi) vrel -= a * p.omega[i].cross(n);
     double overlap_shift = 0;
-    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift);
+    // A wall is flat for Hertz (R* = a); the moonlet's curvature (a R / (a + R)) is ignored.
+    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, a);
     if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
     if (xi) torque = (-a * n).cross(ft);  // frictionless walls exert no torque: skip the work
     else torque.setZero();
@@ -301,7 +324,7 @@ class LinearSpringDashpot {
   int n_;
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;
-  bool velocity_dependent_ = false;
+  bool velocity_dependent_ = false, hertz_ = false;
   std::vector<PairLaw> table_;
   std::vector<double> half_ = std::vector<double>(n_ * n_);  // sin(omega dt / 2) per pair
 };
