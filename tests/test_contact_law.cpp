@@ -692,3 +692,85 @@ TEST(ContactLaw, LawCaseKeysAreChecked) {
   refused(kPair, {"species.0.youngs_modulus=1e9"}, "species[0].youngs_modulus");
   refused(std::string(kHertzPair) + rock, {}, "species");
 }
+
+namespace {
+// A 1 mm glass sphere on the floor of a box under gravity, with rolling (mu_r) and twisting
+// (mu_o) resistance; returns the simulation after `steps`, the sphere started on the floor
+// moving at v0 along x while rolling without slip, and spinning at spin about z.
+const char* kFloor = R"(
+modules = ["contact", "walls", "gravity"]
+[domain]
+lo = [-0.05, -0.05, 0.0]
+hi = [0.05, 0.05, 0.01]
+boundary = ["periodic", "periodic", "wall"]
+[[species]]
+density = 2500.0
+radius = 0.001
+t_c = 1.0e-4
+e = 0.5
+mu_s = 0.5
+mu_d = 0.5
+mu_r = 0.1
+mu_o = 0.05
+[particles]
+init = "none"
+[gravity]
+g = [0.0, 0.0, -9.81]
+[time]
+n_c = 20
+end = 1.0
+)";
+}  // namespace
+
+TEST(ContactLaw, SphereRollsToRestUnderRollingResistance) {
+  // Rolling without slip (v = a omega) under the limit torque mu_r a f_n, f_n = m g: the friction
+  // force F and the torque give m v' = F and I omega' = -F a - mu_r a m g, so with I = 2/5 m a^2
+  // the sphere decelerates at 5/7 mu_r g and stops after v0 / (5/7 mu_r g). (The
+  // elastic-plastic model sits at its limit torque while the sphere rolls; Ai et al. 2011.)
+  const double a = 1e-3, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, g = 9.81, mu_r = 0.1;
+  const double v0 = 0.05, decel = 5.0 / 7.0 * mu_r * g, t_stop = v0 / decel;
+  auto sim = make_sim(kFloor, {"species.0.mu_o=0.0"});
+  sim->particles.add(0, 0, a, m, Vec3(0, 0, a), Vec3(v0, 0, 0));
+  sim->particles.omega[0] = Vec3(0, v0 / a, 0);
+  sim->setup();
+  double v_a = 0, t_a = 0;
+  bool checked = false;
+  while (sim->time < 1.5 * t_stop) {
+    sim->step();
+    if (v_a == 0 && sim->time > 0.25 * t_stop) { v_a = sim->particles.v[0][0]; t_a = sim->time; }
+    if (t_a > 0 && sim->time > 0.75 * t_stop && sim->time - sim->dt <= 0.75 * t_stop) {
+      const double measured = (v_a - sim->particles.v[0][0]) / (sim->time - t_a);
+      std::printf("rolling: deceleration / (5/7 mu_r g) = %.6f\n", measured / decel);
+      EXPECT_NEAR(measured / decel, 1, 1e-3) << "deceleration while rolling";
+      checked = true;
+      EXPECT_NEAR(sim->particles.v[0][0], a * sim->particles.omega[0][1], 1e-6 * v0) << "no slip";
+    }
+  }
+  EXPECT_TRUE(checked);
+  EXPECT_LT(std::abs(sim->particles.v[0][0]), 1e-6 * v0) << "at rest after the stopping time";
+  std::printf("rolling: stopping distance / v0^2 / (2 decel) = %.6f\n", sim->particles.x[0][0] / (v0 * v0 / (2 * decel)));
+  EXPECT_NEAR(sim->particles.x[0][0] / (v0 * v0 / (2 * decel)), 1, 2e-3) << "stopping distance";
+}
+
+TEST(ContactLaw, SpinAboutTheNormalStopsUnderTwistingResistance) {
+  // A sphere spinning about the floor's normal at omega0: the limit torque mu_o a m g slows it
+  // at omega' = mu_o a m g / (2/5 m a^2) = 2.5 mu_o g / a until it stops.
+  const double a = 1e-3, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, g = 9.81, mu_o = 0.05;
+  const double w0 = 20.0, decel = 2.5 * mu_o * g / a, t_stop = w0 / decel;
+  auto sim = make_sim(kFloor, {"species.0.mu_r=0.0"});
+  sim->particles.add(0, 0, a, m, Vec3(0, 0, a), Vec3::Zero());
+  sim->particles.omega[0] = Vec3(0, 0, w0);
+  sim->setup();
+  double w_a = 0, t_a = 0;
+  bool checked = false;
+  while (sim->time < 1.5 * t_stop) {
+    sim->step();
+    if (w_a == 0 && sim->time > 0.25 * t_stop) { w_a = sim->particles.omega[0][2]; t_a = sim->time; }
+    if (t_a > 0 && sim->time > 0.75 * t_stop && sim->time - sim->dt <= 0.75 * t_stop) {
+      EXPECT_NEAR((w_a - sim->particles.omega[0][2]) / (sim->time - t_a) / decel, 1, 1e-3) << "spin-down rate";
+      checked = true;
+    }
+  }
+  EXPECT_TRUE(checked);
+  EXPECT_LT(std::abs(sim->particles.omega[0][2]), 1e-6 * w0) << "at rest after the stopping time";
+}

@@ -86,6 +86,11 @@ TEST(RankEquivalence, HertzMindlinGasWithWalls) {
   compare(hertz, {}, 2000);
 }
 
+TEST(RankEquivalence, RollingAndTwistingResistanceGasWithWalls) {
+  // Torque springs per contact and per (particle, wall), carried like the tangential springs.
+  compare(kScene, {"species.0.mu_r=0.1", "species.0.mu_o=0.05"}, 2000);
+}
+
 TEST(RankEquivalence, FrictionalGasWithWallsSlabsAlongY) { compare(kScene, {"domain.slab_axis=\"y\""}, 2000); }
 
 TEST(RankEquivalence, DenseFrictionalPackingWithManyContactsPerParticle) {

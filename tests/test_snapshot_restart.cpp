@@ -145,6 +145,15 @@ void expect_restart_bitwise(const std::string& scene) {
 
 TEST(Snapshot, RestartContinuesBitwiseOnTheSameAndOnAnotherRankCount) { expect_restart_bitwise(kScene); }
 
+TEST(Snapshot, RollingResistanceRestartsBitwise) {
+  // The rolling and twisting torque springs of the contacts open at the snapshot (pairs and the
+  // floor) travel in it (contacts/roll, particles/grains/wall_roll).
+  std::string scene = kScene;
+  const std::string at = "mu_d = 0.4\n";
+  scene.insert(scene.find(at) + at.size(), "mu_r = 0.1\nmu_o = 0.05\n");
+  expect_restart_bitwise(scene);
+}
+
 TEST(Snapshot, BridgesContactsRestartBitwise) {
   // Under the Bridges law every contact's e was fixed at its impact: the impact speeds of the
   // contacts open at the snapshot (pairs, and particles on the floor wall) travel in it.

@@ -35,6 +35,10 @@ bool Config::hertz() const {
   return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.e_star > 0; });
 }
 
+bool Config::rolling() const {
+  return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.mu_r > 0 || q.mu_o > 0; });
+}
+
 bool Config::has_module(const std::string& name) const {
   return std::find(modules.begin(), modules.end(), name) != modules.end();
 }
@@ -140,6 +144,11 @@ Config read_config(CaseFile& f) {
     }
     s.mu_s = non_negative(f, p + "mu_s", 0.0);
     s.mu_d = non_negative(f, p + "mu_d", s.mu_s);
+    s.mu_r = non_negative(f, p + "mu_r", 0.0);
+    s.mu_o = non_negative(f, p + "mu_o", 0.0);
+    s.eta_r = non_negative(f, p + "eta_r", 0.3);
+    if ((s.mu_r > 0 || s.mu_o > 0) && !(s.mu_s > 0))
+      f.fail(p + (s.mu_r > 0 ? "mu_r" : "mu_o"), "rolling or twisting resistance only with sliding friction (mu_s > 0)");
     if (s.mu_d > s.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
     s.kt_ratio = non_negative(f, p + "kt_ratio", 2.0 / 7.0);
     s.gammat_ratio = non_negative(f, p + "gammat_ratio", 2.0 / 7.0);
@@ -164,7 +173,8 @@ Config read_config(CaseFile& f) {
       const Species &s = c.species[a], &t = c.species[b];
       c.pairs[a * n + b] = {0.5 * (s.t_c + t.t_c), 0.5 * (s.e + t.e), std::min(s.mu_s, t.mu_s), std::min(s.mu_d, t.mu_d),
                             0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio),
-                            0.5 * (s.v_c + t.v_c)};
+                            0.5 * (s.v_c + t.v_c), std::min(s.mu_r, t.mu_r), std::min(s.mu_o, t.mu_o),
+                            0.5 * (s.eta_r + t.eta_r)};
       if (s.youngs_modulus > 0 && t.youngs_modulus > 0) {
         c.pairs[a * n + b].e_star = hertz_e_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
         c.pairs[a * n + b].g_star = hertz_g_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
@@ -204,6 +214,11 @@ Config read_config(CaseFile& f) {
     law_set[idx[0] * n + idx[1]] = law_set[idx[1] * n + idx[0]] = f.has(p + "restitution") || f.has(p + "e");
     pp.mu_s = non_negative(f, p + "mu_s", pp.mu_s);
     pp.mu_d = non_negative(f, p + "mu_d", std::min(pp.mu_d, pp.mu_s));
+    pp.mu_r = non_negative(f, p + "mu_r", pp.mu_r);
+    pp.mu_o = non_negative(f, p + "mu_o", pp.mu_o);
+    pp.eta_r = non_negative(f, p + "eta_r", pp.eta_r);
+    if ((pp.mu_r > 0 || pp.mu_o > 0) && !(pp.mu_s > 0))
+      f.fail(p + "mu_r", "rolling or twisting resistance only with sliding friction (mu_s > 0)");
     if (pp.mu_d > pp.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
     pp.kt_ratio = non_negative(f, p + "kt_ratio", pp.kt_ratio);
     pp.gammat_ratio = non_negative(f, p + "gammat_ratio", pp.gammat_ratio);

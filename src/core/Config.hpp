@@ -30,6 +30,9 @@ struct Species {
   // (impact_speed) between two of the smallest particles, which sets the time step.
   double youngs_modulus = 0, poisson_ratio = 0, impact_speed = 0;
   double mu_s = 0, mu_d = 0;              // Coulomb static and dynamic friction
+  // Rolling and twisting resistance (elastic-plastic spring-dashpot, LinearSpringDashpot::
+  // rolling): limit torques mu_r R* f_n and mu_o R* f_n, damping ratio eta_r; needs mu_s > 0.
+  double mu_r = 0, mu_o = 0, eta_r = 0.3;
   double kt_ratio = 2.0 / 7.0;            // k_t = kt_ratio k
   double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
 };
@@ -41,6 +44,7 @@ struct Species {
 struct PairParameters {
   double t_c = 0, e = 1, mu_s = 0, mu_d = 0, kt_ratio = 2.0 / 7.0, gammat_ratio = 2.0 / 7.0;
   double v_c = 0;  // > 0: Bridges restitution (e set per impact; see Species::v_c)
+  double mu_r = 0, mu_o = 0, eta_r = 0.3;  // rolling and twisting resistance (see Species::mu_r)
   double e_star = 0, g_star = 0;  // > 0: Hertz-Mindlin effective moduli (see Species::youngs_modulus)
 };
 // Bridges et al. (1984): e = (u / v_c)^-kBridgesExponent for impacts faster than v_c.
@@ -128,6 +132,7 @@ struct Config {
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
   bool velocity_dependent_restitution() const;  // some pair's e is set per impact (Bridges)
   bool hertz() const;                           // some pair follows Hertz-Mindlin
+  bool rolling() const;                         // some pair resists rolling or twisting
   double max_radius() const;
   // Largest centre distance at which two particles interact, plus the skin: the neighbour
   // list's and the halo's range.

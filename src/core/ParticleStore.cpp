@@ -22,6 +22,7 @@ void ParticleStore::resize(std::size_t n) {
     wall_xi.resize(n * walls, Vec3::Zero());
   }
   if (impacts) wall_impact.resize(n * walls, 0.0);
+  if (rolling) wall_roll.resize(n * walls, Vec3::Zero());
 }
 
 void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3& pos, const Vec3& vel) {
@@ -43,6 +44,8 @@ void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3
   }
   if (impacts)
     for (int w = 0; w < walls; ++w) wall_impact[i * walls + w] = 0;
+  if (rolling)
+    for (int w = 0; w < walls; ++w) wall_roll[i * walls + w].setZero();
 }
 
 void ParticleStore::copy(std::size_t from, std::size_t to) {
@@ -64,6 +67,8 @@ void ParticleStore::copy(std::size_t from, std::size_t to) {
   }
   if (impacts)
     for (int w = 0; w < walls; ++w) wall_impact[to * walls + w] = wall_impact[from * walls + w];
+  if (rolling)
+    for (int w = 0; w < walls; ++w) wall_roll[to * walls + w] = wall_roll[from * walls + w];
 }
 
 void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
@@ -96,12 +101,13 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
     apply(wall_xi, walls);
   }
   if (impacts) apply(wall_impact, walls);
+  if (rolling) apply(wall_roll, walls);
   nlocal = order.size();
 }
 
 std::size_t ParticleStore::packed_size() const {
-  // id, species, radius, mass, x, v, x_build, f, mode (+ omega, torque, wall_xi) (+ wall_impact)
-  return 5 + 12 + (rotation ? 6 + 3 * walls : 0) + (impacts ? walls : 0);
+  // id, species, radius, mass, x, v, x_build, f, mode (+ omega, torque, wall_xi) (+ wall_impact) (+ wall_roll)
+  return 5 + 12 + (rotation ? 6 + 3 * walls : 0) + (impacts ? walls : 0) + (rolling ? 3 * walls : 0);
 }
 
 void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
@@ -122,6 +128,8 @@ void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
   }
   if (impacts)
     for (int w = 0; w < walls; ++w) buf.push_back(wall_impact[i * walls + w]);
+  if (rolling)
+    for (int w = 0; w < walls; ++w) buf.insert(buf.end(), wall_roll[i * walls + w].data(), wall_roll[i * walls + w].data() + 3);
 }
 
 std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o) {
@@ -143,6 +151,8 @@ std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o)
   }
   if (impacts)
     for (int w = 0; w < walls; ++w) wall_impact[i * walls + w] = buf[o++];
+  if (rolling)
+    for (int w = 0; w < walls; ++w, o += 3) wall_roll[i * walls + w] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
   return o;
 }
 

@@ -17,6 +17,7 @@ struct ParticleStore {
   bool rotation = false;  // fixed at start: true iff some species has friction
   int walls = 0;          // number of wall planes (one tangential history slot each)
   bool impacts = false;   // fixed at start: true iff some restitution is set per impact (Bridges)
+  bool rolling = false;   // fixed at start: true iff some pair resists rolling (needs rotation)
 
   std::size_t nlocal = 0;
 
@@ -34,6 +35,7 @@ struct ParticleStore {
   std::vector<Vec3> x_build;          // position at the last neighbour-list build
   std::vector<Vec3> wall_xi;          // rotation only: tangential spring per (particle, wall)
   std::vector<double> wall_impact;    // impacts only: impact normal speed per (particle, wall), 0: none
+  std::vector<Vec3> wall_roll;        // rolling only: rolling-resistance torque spring per (particle, wall)
   // The integrator's mode of the particle, carried through migration (multi-rate: on the
   // free epicycle or on contact steps; see MultiRateHill). 0 for the plain integrator.
   std::vector<std::uint8_t> mode;

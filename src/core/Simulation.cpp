@@ -23,6 +23,7 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   range = cfg.pair_range();  // largest a_i + a_j (+ lubrication reach) + skin
   particles.rotation = cfg.friction();
   particles.impacts = cfg.velocity_dependent_restitution();
+  particles.rolling = cfg.rolling();
   particles.walls = static_cast<int>(domain_walls(cfg).size());
   if (cfg.has_module("channel")) particles.walls += ChannelGeometry(cfg.channel).features();
   if (cfg.has_module("moonlet")) particles.walls += 1;  // the moonlet's spring: the last slot

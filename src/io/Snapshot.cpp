@@ -126,9 +126,10 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   const Decomposition& dom = sim.domain;
   const int P = dom.nranks;
   const int nw = p.rotation ? p.walls : 0;
-  const int ni = p.impacts ? p.walls : 0;
-  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], [wall_impact * ni], body force
-  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + ni + 3;
+  const int ni = p.impacts ? p.walls : 0, nr = p.rolling ? p.walls : 0;
+  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], [wall_impact * ni],
+  // [wall_roll * nr], body force
+  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + ni + 3 * nr + 3;
   std::vector<Vec3> body(p.nlocal, Vec3::Zero());  // the non-contact forces, for cassini-cg (3.34)
   for (const auto& m : sim.modules) m->add_body_forces(sim, body);
 
@@ -148,6 +149,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       for (int w = 0; w < nw; ++w) r.insert(r.end(), p.wall_xi[i * nw + w].data(), p.wall_xi[i * nw + w].data() + 3);
     }
     for (int w = 0; w < ni; ++w) r.push_back(p.wall_impact[i * ni + w]);
+    for (int w = 0; w < nr; ++w) r.insert(r.end(), p.wall_roll[i * nr + w].data(), p.wall_roll[i * nr + w].data() + 3);
     r.insert(r.end(), body[i].data(), body[i].data() + 3);
   }
   std::vector<int> sc(P), rc(P), sd(P), rd(P);
@@ -174,7 +176,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   std::vector<std::int64_t> ids(n);
   std::vector<std::int32_t> species(n);
   std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n), w(p.rotation ? 3 * n : 0),
-      t(p.rotation ? 3 * n : 0), wx(3 * nw * n), wi(ni * n), bf(3 * n);
+      t(p.rotation ? 3 * n : 0), wx(3 * nw * n), wi(ni * n), wr(3 * nr * n), bf(3 * n);
   for (std::size_t k = 0; k < n; ++k) {
     const double* r = &in[order[k] * width];
     ids[k] = bits_id(r[0]);
@@ -188,7 +190,8 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       if (p.rotation) { w[3 * k + c] = r[13 + c]; t[3 * k + c] = r[16 + c]; }
     }
     for (int c = 0; c < 3 * nw; ++c) wx[3 * nw * k + c] = r[19 + c];
-    for (int c = 0; c < ni; ++c) wi[ni * k + c] = r[width - 3 - ni + c];
+    for (int c = 0; c < ni; ++c) wi[ni * k + c] = r[width - 3 - 3 * nr - ni + c];
+    for (int c = 0; c < 3 * nr; ++c) wr[3 * nr * k + c] = r[width - 3 - 3 * nr + c];
     for (int c = 0; c < 3; ++c) bf[3 * k + c] = r[width - 3 + c];
   }
 
@@ -225,6 +228,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       if (nw > 0) element(grains, "wall_xi", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nw, wx.data(), step, time, dxpl);
     }
     if (ni > 0) element(grains, "wall_impact", H5T_NATIVE_DOUBLE, N, off, rows, ni, wi.data(), step, time, dxpl);
+    if (nr > 0) element(grains, "wall_roll", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nr, wr.data(), step, time, dxpl);
     {
       Handle box = group(grains, "box");
       attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
@@ -268,6 +272,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
       vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
       double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
+      vec3_column(cg, "roll", sr, springs, &HistoryEntry::roll, dxpl);
       // Pair forces for stress (each pair once; contacts and lubrication): ids, position of i,
       // branch r_i - r_j, force on i. Wall contacts: particle id, contact point, branch, force.
       std::vector<PairForce> pairs;
@@ -435,6 +440,10 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     std::vector<double> wi(ni * n, 0.0);
     if (ni > 0 && H5Lexists(file, (g + "wall_impact").c_str(), H5P_DEFAULT) > 0)
       read_rows(file, g + "wall_impact/value", H5T_NATIVE_DOUBLE, lo, n, ni, wi.data(), dxpl);
+    const int nr = p.rolling ? p.walls : 0;
+    std::vector<double> wr(3 * nr * n, 0.0);
+    if (nr > 0 && H5Lexists(file, (g + "wall_roll").c_str(), H5P_DEFAULT) > 0)
+      read_rows(file, g + "wall_roll/value", H5T_NATIVE_DOUBLE, lo, n, 3 * nr, wr.data(), dxpl);
     double state[3];
     std::int64_t step = 0;
     read_rows(file, "parameters/time_offset_dt", H5T_NATIVE_DOUBLE, 0, 3, 1, state, dxpl, false);
@@ -451,6 +460,9 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     std::vector<double> impact(M, 0.0);
     if (H5Lexists(file, "contacts/impact_speed", H5P_DEFAULT) > 0)
       read_rows(file, "contacts/impact_speed", H5T_NATIVE_DOUBLE, 0, M, 1, impact.data(), dxpl, false);
+    std::vector<double> roll(3 * M, 0.0);  // rolling-resistance torque springs, likewise
+    if (H5Lexists(file, "contacts/roll", H5P_DEFAULT) > 0)
+      read_rows(file, "contacts/roll", H5T_NATIVE_DOUBLE, 0, M, 3, roll.data(), dxpl, false);
 
     p.resize(0);
     for (hsize_t k = 0; k < n; ++k) {
@@ -464,6 +476,8 @@ void read_snapshot(Simulation& sim, const std::string& path) {
           p.wall_xi[k * nw + q] = Vec3(wx[3 * nw * k + 3 * q], wx[3 * nw * k + 3 * q + 1], wx[3 * nw * k + 3 * q + 2]);
       }
       for (int q = 0; q < ni; ++q) p.wall_impact[k * ni + q] = wi[ni * k + q];
+      for (int q = 0; q < nr; ++q)
+        p.wall_roll[k * nr + q] = Vec3(wr[3 * nr * k + 3 * q], wr[3 * nr * k + 3 * q + 1], wr[3 * nr * k + 3 * q + 2]);
     }
     p.nlocal = p.size();
     std::vector<std::int64_t> mine(ids);
@@ -471,7 +485,8 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     sim.history.clear();
     for (hsize_t k = 0; k < M; ++k)
       if (std::binary_search(mine.begin(), mine.end(), owner[k]))
-        sim.history.push_back({owner[k], partner[k], Vec3(xi[3 * k], xi[3 * k + 1], xi[3 * k + 2]), impact[k]});
+        sim.history.push_back({owner[k], partner[k], Vec3(xi[3 * k], xi[3 * k + 1], xi[3 * k + 2]), impact[k],
+                               Vec3(roll[3 * k], roll[3 * k + 1], roll[3 * k + 2])});
     if (std::abs(state[2] - sim.dt) > 1e-12 * sim.dt)
       throw ConfigError(path + ": snapshot dt " + std::to_string(state[2]) + " differs from the case's dt " +
                         std::to_string(sim.dt) + " (a restart must keep the time step)");

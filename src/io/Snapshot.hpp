@@ -9,12 +9,13 @@
 //   h5md/                          version [1,1], author, creator
 //   particles/grains/{position, velocity, omega*, id, species, radius, mass}/{step,time,value}
 //   particles/trajectory           soft link to particles/grains (MDAnalysis looks for that name)
-//   particles/grains/{force, torque*, body_force, wall_xi*, wall_impact*}/{step,time,value}   forces of the step;
+//   particles/grains/{force, torque*, body_force, wall_xi*, wall_impact*, wall_roll*}/{step,time,value}   forces of the step;
 //                                  body_force: the non-contact part (gravity, drag, frame forces)
 //   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
 //   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
-//   contacts/{owner, partner, xi, impact_speed}   contact history: tangential springs and (Bridges
-//                                  restitution) impact speeds; restart needs them
+//   contacts/{owner, partner, xi, impact_speed, roll}   contact history: tangential springs,
+//                                  (Bridges restitution) impact speeds, (rolling resistance)
+//                                  torque springs; restart needs them
 //   contacts/{pair_ids, position_i, branch, force}   pair forces, each pair once (contacts and
 //                                  lubrication), at the snapshot state: for stress (cassini-cg)
 //   contacts/{wall_particle, wall_point, wall_branch, wall_force}   particle-wall contacts

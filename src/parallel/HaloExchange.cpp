@@ -97,6 +97,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
           buf.push_back(id_bits(h->partner));
           buf.insert(buf.end(), h->xi.data(), h->xi.data() + 3);
           buf.push_back(h->impact);
+          buf.insert(buf.end(), h->roll.data(), h->roll.data() + 3);
         }
       } else {
         ++removed;
@@ -113,8 +114,9 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
     o = p.unpack(in, o);
     const std::int64_t owner = p.id[p.size() - 1];
     const auto nh = static_cast<std::size_t>(in[o++]);
-    for (std::size_t h = 0; h < nh; ++h, o += 5)
-      history.push_back({owner, bits_id(in[o]), Vec3(in[o + 1], in[o + 2], in[o + 3]), in[o + 4]});
+    for (std::size_t h = 0; h < nh; ++h, o += 8)
+      history.push_back({owner, bits_id(in[o]), Vec3(in[o + 1], in[o + 2], in[o + 3]), in[o + 4],
+                         Vec3(in[o + 5], in[o + 6], in[o + 7])});
     p.nlocal = p.size();
   }
   for (std::size_t i = 0; i < p.nlocal; ++i)

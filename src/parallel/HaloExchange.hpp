@@ -21,6 +21,7 @@ struct HistoryEntry {
   std::int64_t owner, partner;
   Vec3 xi;              // tangential spring (friction)
   double impact = 0;    // normal speed of the contact's impact (Bridges restitution)
+  Vec3 roll = Vec3::Zero();  // rolling/twisting torque spring (rolling resistance)
 };
 
 class HaloExchange {

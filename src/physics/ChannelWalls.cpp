@@ -29,6 +29,11 @@ void ChannelWalls::post_rebuild(Simulation& sim) {
       for (int k = 0; k < nf; ++k)
         if (!(candidates_[i] >> k & 1)) xi[k].setZero();
     }
+    if (p.rolling) {
+      Vec3* roll = &p.wall_roll[i * p.walls + first_slot_];
+      for (int k = 0; k < nf; ++k)
+        if (!(candidates_[i] >> k & 1)) roll[k].setZero();
+    }
   }
 }
 
@@ -50,12 +55,16 @@ void ChannelWalls::force(Simulation& sim) {
     for (std::uint64_t m = cand; m; m &= m - 1)  // ascending feature order, as contacts() gives
       geometry_.feature_contact(std::countr_zero(m), p.x[i][0], p.x[i][1], reach, touching_);
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + first_slot_] : nullptr;
+    Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + first_slot_] : nullptr;
     // Springs of features no longer touched relax to zero (a new contact starts unloaded).
     if (fric) {
       std::uint64_t touched = 0;
       for (const auto& c : touching_)
         if (c.distance < a) touched |= std::uint64_t{1} << c.feature;
-      for (std::uint64_t m = cand & ~touched; m; m &= m - 1) xi[std::countr_zero(m)].setZero();
+      for (std::uint64_t m = cand & ~touched; m; m &= m - 1) {
+        xi[std::countr_zero(m)].setZero();
+        if (roll) roll[std::countr_zero(m)].setZero();
+      }
     }
     Vec3 move = Vec3::Zero();
     for (const auto& c : touching_) {
@@ -70,7 +79,8 @@ void ChannelWalls::force(Simulation& sim) {
       if (delta <= 0 && delta + p.v[i].dot(n) * dt <= 0) continue;  // not touching, nor a step ago
       Vec3 torque;
       double shift = 0;
-      p.f[i] += law_.wall_force(p, i, n, delta, fric && delta > 0 ? &xi[c.feature] : nullptr, torque, true, &shift);
+      p.f[i] += law_.wall_force(p, i, n, delta, fric && delta > 0 ? &xi[c.feature] : nullptr, torque, true, &shift,
+                                nullptr, roll && delta > 0 ? &roll[c.feature] : nullptr);
       move += shift * n;
       if (fric && delta > 0) p.torque[i] += torque;
       if (delta / a > worst) { worst = delta / a; worst_id_ = p.id[i]; }
@@ -91,8 +101,9 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
       if (c.distance <= 0) continue;
       const Vec3 n(c.nx, c.ny, 0);
       Vec3 spring = fric ? p.wall_xi[i * p.walls + first_slot_ + c.feature] : Vec3::Zero(), torque;
+      Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + first_slot_ + c.feature] : Vec3::Zero();
       const Vec3 f = law_.wall_force(p, i, n, p.radius[i] - c.distance, fric ? &spring : nullptr, torque,
-                                     false);  // the step already advanced the spring
+                                     false, nullptr, nullptr, &roll);  // the step already advanced the springs
       out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
     }
   }

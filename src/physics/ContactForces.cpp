@@ -45,6 +45,10 @@ void ContactForces::force(Simulation& sim) {
   // Bridges restitution: each contact's law follows from its impact speed, kept per entry.
   const bool vdep = law_.velocity_dependent();
   const bool hertz = law_.hertz();
+  // Rolling and twisting resistance: a torque spring per entry, history like xi_ (friction is on).
+  const bool rolls = law_.rolling();
+  if (rolls && roll_.size() != nl.size()) roll_.assign(nl.size(), Vec3::Zero());
+  Vec3* XR = rolls ? roll_.data() : nullptr;
   if (vdep && impact_.size() != nl.size()) impact_.assign(nl.size(), 0.0);
   double* U = vdep ? impact_.data() : nullptr;
   PairLaw contact_law;  // scratch for a contact's own law
@@ -106,9 +110,11 @@ void ContactForces::force(Simulation& sim) {
         if (T[k]) {  // contact just ended: forget the spring (writes only on transitions)
           T[k] = 0;
           if (fric) XI[k].setZero();
+          if (rolls) XR[k].setZero();
           if (mk != kNoMirror) {
             T[mk] = 0;
             if (fric) XI[mk].setZero();
+            if (rolls) XR[mk].setZero();
           }
           // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
           // touched at the last evaluation can have parted during the step.
@@ -169,15 +175,23 @@ void ContactForces::force(Simulation& sim) {
       // Springs carried over from an independent two-sided evaluation (across a rank or
       // periodic boundary before a migration) may differ in the last bits: then j's side is
       // evaluated on its own spring, as j would.
-      const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k];
+      const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k] && (!rolls || XR[mk] == -XR[k]);
       double shift = 0;
-      const double reff = hertz ? ai * A[j] / (ai + A[j]) : 0.0;  // Hertz pairs' reduced radius
-      const Vec3 f = law_.force(L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff);
+      const double reff = hertz || rolls ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
+      // Rolling: relative spin and reduced moment of inertia about the contact point (I + m a^2
+      // = 1.4 m a^2 per solid sphere; ghosts carry no inverse inertia).
+      Rolling rl;
+      if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), XR[k]};
+      const Vec3 f = law_.force(L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
+      if (rolls) XR[k] = rl.spring;
       fsum += f;
       if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
       // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
       if (shift != 0) dsum += (-(m / mi) * shift) * n;
-      if (fric) tsum += (-ai * n).cross(ft);  // lever from i's centre to the contact point
+      // Lever from i's centre to the contact point, plus rolling resistance: summed before joining
+      // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
+      // which side evaluates it.
+      if (fric) tsum += rolls ? Vec3((-ai * n).cross(ft) + rl.torque) : Vec3((-ai * n).cross(ft));
       ++contacts;
       const double frac = delta / std::min(ai, A[j]);
       overlap_sum += frac;
@@ -197,15 +211,27 @@ void ContactForces::force(Simulation& sim) {
         } else {
           const Vec3 nj = -n;
           Vec3 ftj;
+          Vec3 rolling_torque = Vec3::Zero();
           if (mirror_spring && !own_law) {
             out.f = -f;
             ftj = -ft;
             XI[mk] = -XI[k];
+            if (rolls) {
+              XR[mk] = -XR[k];
+              rolling_torque = -rl.torque;
+            }
           } else {
             const PairLaw Lj = own_law ? law_of(S[j], si, mk) : L;
-            out.f = law_.force(Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff);
+            Rolling rj;
+            if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
+            out.f = law_.force(Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
+                               rolls ? &rj : nullptr);
+            if (rolls) {
+              XR[mk] = rj.spring;
+              rolling_torque = rj.torque;
+            }
           }
-          if (fric) out.torque = (-A[j] * nj).cross(ftj);
+          if (fric) out.torque = (-A[j] * nj).cross(ftj) + rolling_torque;
         }
       }
     }
@@ -253,11 +279,12 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
   if (nl.start.size() != p.nlocal + 1) return;
   const bool fric = law_.friction() && xi_.size() == nl.size();
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
+  const bool rolls = law_.rolling() && roll_.size() == nl.size();
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const Vec3 xi = fric ? xi_[k] : Vec3::Zero();
+      const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
       const double u = vdep ? impact_[k] : 0.0;
-      if (!xi.isZero(0) || u != 0) out.push_back({p.id[i], p.id[nl.partner[k]], xi, u});
+      if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[i], p.id[nl.partner[k]], xi, u, roll});
     }
 }
 
@@ -352,6 +379,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
   auto& stash = sim.history;
   if (law_.friction()) xi_.assign(nl.size(), Vec3::Zero());
   if (law_.velocity_dependent()) impact_.assign(nl.size(), 0.0);
+  if (law_.rolling()) roll_.assign(nl.size(), Vec3::Zero());
   auto before = [](const HistoryEntry& a, const HistoryEntry& b) {
     return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
   };
@@ -364,6 +392,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
       if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) {
         if (law_.friction()) xi_[k] = it->xi;
         if (law_.velocity_dependent()) impact_[k] = it->impact;
+        if (law_.rolling()) roll_[k] = it->roll;
       }
     }
   stash.clear();

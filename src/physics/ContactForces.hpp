@@ -28,8 +28,9 @@ class ContactForces : public Module {
   // boundary (see force()); with HaloExchange::shear_energy, the shear's whole work.
   double energy_input() const override { return boundary_work_; }
   void pre_rebuild(Simulation& sim) override;
-  // Contact history as (owner id, partner id, tangential spring xi, impact speed) for every
-  // owned contact that has some (a spring with friction, an impact speed under Bridges).
+  // Contact history as (owner id, partner id, tangential spring xi, impact speed, torque spring)
+  // for every owned contact that has some (springs with friction and rolling resistance, an
+  // impact speed under Bridges).
   void springs(const Simulation& sim, std::vector<HistoryEntry>& out) const;
   // Every contact once (springs unchanged).
   void pair_forces(const Simulation& sim, std::vector<PairForce>& out) const override;
@@ -81,6 +82,7 @@ class ContactForces : public Module {
   std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
   std::vector<double> impact_;  // Bridges law: impact normal speed per entry in contact (0: none)
+  std::vector<Vec3> roll_;      // rolling resistance: torque spring per entry
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   PendingShifts shifts_;  // exact scheme: moves of this step
   double overlap_sum_ = 0;

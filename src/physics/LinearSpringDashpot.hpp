@@ -86,6 +86,16 @@ inline double verlet_stability_limit(double t_c, double e) {
   return lo * t_c;
 }
 
+// What rolling resistance needs of a contact beyond the force's arguments (LinearSpringDashpot::
+// rolling): the relative spin omega_i - omega_j, the reduced moment of inertia about the contact
+// point, and the torque spring (history, like the tangential spring); out: the torque on i.
+struct Rolling {
+  Vec3 spin;
+  double inertia;
+  Vec3 spring;
+  Vec3 torque = Vec3::Zero();
+};
+
 struct PairLaw {
   double k_per_mass;      // omega^2 + eta^2
   double gamma_per_mass;  // 2 eta
@@ -96,6 +106,7 @@ struct PairLaw {
   double t_c;
   double v_c;  // > 0: e is set per impact by the Bridges law (LinearSpringDashpot::at_impact)
   double e_star, g_star, c_hertz;  // e_star > 0: Hertz-Mindlin (HertzMindlin.hpp), c from e
+  double mu_r, mu_o, eta_r;        // rolling and twisting resistance (LinearSpringDashpot::rolling)
 };
 
 // The normal part of one evaluation: force along n (repulsive > 0), the overlap the pair is to
@@ -149,6 +160,10 @@ class LinearSpringDashpot {
         L.e_star = q.e_star;
         L.g_star = q.g_star;
         L.c_hertz = q.e_star > 0 ? hertz_damping_constant(q.e) : 0.0;
+        L.mu_r = q.mu_r;
+        L.mu_o = q.mu_o;
+        L.eta_r = q.eta_r;
+        rolling_ = rolling_ || q.mu_r > 0 || q.mu_o > 0;
         hertz_ = hertz_ || q.e_star > 0;
       }
     velocity_dependent_ = cfg.velocity_dependent_restitution();
@@ -187,6 +202,8 @@ class LinearSpringDashpot {
   bool velocity_dependent() const { return velocity_dependent_; }
   // Some pair follows Hertz-Mindlin: callers pass the reduced radius (reff).
   bool hertz() const { return hertz_; }
+  // Some pair resists rolling or twisting: callers pass a Rolling (below) to force().
+  bool rolling() const { return rolling_; }
 
   const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
   bool friction() const { return friction_; }
@@ -248,9 +265,12 @@ class LinearSpringDashpot {
   // Returns the total force; ft receives the tangential part (for the torque).
   // advance = false evaluates the force of the spring as it stands, without this step's
   // increment v_t dt: for reports (snapshots, stress) after the step already advanced it.
-  // reff: the reduced radius, used by Hertz pairs only.
+  // reff: the reduced radius (Hertz pairs; rolling resistance).
+  // roll (with friction, for pairs that resist rolling): in the relative spin and the torque
+  // spring, out the rolling and twisting torque on i (see rolling()).
   [[gnu::always_inline]] Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi,
-                                     Vec3& ft, bool advance = true, double* shift = nullptr, double reff = 0) const {
+                                     Vec3& ft, bool advance = true, double* shift = nullptr, double reff = 0,
+                                     Rolling* roll = nullptr) const {
     const double vn = vrel.dot(n);
     const NormalStep ns = normal(L, m, delta, vn, reff);
     if (shift) *shift = ns.shift;
@@ -286,7 +306,42 @@ class LinearSpringDashpot {
       s = -(slide / kt) * dir;
     }
     *xi = s;
+    if (roll) {
+      const double kn = L.e_star > 0 ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;  // d f_n / d delta
+      roll->torque = rolling(L, kn, std::max(fn, 0.0), reff, n, advance ? ns.contact_time : 0.0, *roll);
+    }
     return f + ft;
+  }
+
+  // Rolling and twisting resistance, the elastic-plastic spring-dashpot (Ai, Chen, Rotter & Ooi
+  // 2011, their model C; twisting alike): a torque spring M on the relative spin
+  // w = omega_i - omega_j, in its rolling part (across n) and its twisting part (along n). Each
+  // part grows by -k w dt with k = 2.25 k_n mu^2 R*^2, k_n the normal stiffness, and is capped at
+  // mu R* f_n (mu_r rolling, mu_o twisting): at the cap the contact turns plastically and the
+  // dashpot is off; below it a dashpot -2 eta_r sqrt(I k) w acts, I the reduced moment of inertia
+  // about the contact point. A sphere rolling on a plane then decelerates at 5/7 mu_r g
+  // (test: SphereRollsToRestUnderRollingResistance). Torque on i; j gets its negative.
+  Vec3 rolling(const PairLaw& L, double kn, double fn, double reff, const Vec3& n, double contact_time,
+               Rolling& r) const {
+    const Vec3 w_twist = r.spin.dot(n) * n, w_roll = r.spin - w_twist;
+    Vec3 m_twist = r.spring.dot(n) * n, m_roll = r.spring - m_twist;
+    auto part = [&](Vec3& spring, const Vec3& w, double mu) -> Vec3 {
+      if (!(mu > 0)) {
+        spring.setZero();
+        return Vec3::Zero();
+      }
+      const double k = 2.25 * kn * mu * mu * reff * reff, cap = mu * reff * fn;
+      spring -= (k * contact_time) * w;
+      const double s2 = spring.squaredNorm();
+      if (s2 > cap * cap) {  // plastic: the spring stays at the limit torque, no dashpot
+        spring *= cap / std::sqrt(s2);
+        return spring;
+      }
+      return spring - (2 * L.eta_r * std::sqrt(r.inertia * k)) * w;
+    };
+    const Vec3 torque = part(m_roll, w_roll, L.mu_r) + part(m_twist, w_twist, L.mu_o);
+    r.spring = m_roll + m_twist;
+    return torque;
   }
 
   // Force on particle i of p from an immovable wall (infinite mass: m_ij = m_i, the particle's
@@ -296,8 +351,10 @@ class LinearSpringDashpot {
   // impact: the (particle, wall) impact speed under the Bridges law (ParticleStore::wall_impact):
   // set by the first evaluation of a contact, cleared by its exit step; the caller clears it
   // when a particle is away from the wall without an exit step.
+  // roll: the (particle, wall) rolling-resistance torque spring (ParticleStore::wall_roll), or
+  // nullptr; its torque joins `torque`.
   Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque,
-                  bool advance = true, double* shift = nullptr, double* impact = nullptr) const {
+                  bool advance = true, double* shift = nullptr, double* impact = nullptr, Vec3* roll = nullptr) const {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
     const int sp = p.species[i];
@@ -312,11 +369,15 @@ class LinearSpringDashpot {
     }
     if (xi) vrel -= a * p.omega[i].cross(n);
     double overlap_shift = 0;
-    // A wall is flat for Hertz (R* = a); the moonlet's curvature (a R / (a + R)) is ignored.
-    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, a);
+    // A wall is flat for Hertz and rolling (R* = a); the moonlet's curvature (a R / (a + R)) is ignored.
+    const bool rolls = roll && xi && delta > 0 && (L->mu_r > 0 || L->mu_o > 0);
+    Rolling rl;
+    if (rolls) rl = {p.omega[i], 1.4 * p.mass[i] * a * a, *roll};  // the wall does not spin; I + m a^2
+    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, a, rolls ? &rl : nullptr);
     if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
-    if (xi) torque = (-a * n).cross(ft);  // frictionless walls exert no torque: skip the work
+    if (xi) torque = (-a * n).cross(ft) + rl.torque;  // frictionless walls exert no torque: skip the work
     else torque.setZero();
+    if (roll) *roll = rolls ? rl.spring : Vec3::Zero();
     return f;
   }
 
@@ -324,7 +385,7 @@ class LinearSpringDashpot {
   int n_;
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;
-  bool velocity_dependent_ = false, hertz_ = false;
+  bool velocity_dependent_ = false, hertz_ = false, rolling_ = false;
   std::vector<PairLaw> table_;
   std::vector<double> half_ = std::vector<double>(n_ * n_);  // sin(omega dt / 2) per pair
 };

@@ -54,8 +54,10 @@ void Moonlet::force(Simulation& sim) {
     // slot), reset when it lets go, as with any wall; the ring scene is frictionless.
     Vec3* xi = fric ? &p.wall_xi[i * p.walls + slot_] : nullptr;
     double* impact = p.impacts ? &p.wall_impact[i * p.walls + slot_] : nullptr;  // Bridges restitution
+    Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + slot_] : nullptr;         // rolling resistance
     if (d2 >= reach * reach || d2 == 0) {
       if (xi) xi->setZero();
+      if (roll) roll->setZero();
       // The exact scheme's exit step: touching a step ago. A particle moves less than its radius
       // per step (the tunnelling guard), so only this shell needs the test.
       const double far = reach + A[i];
@@ -72,7 +74,8 @@ void Moonlet::force(Simulation& sim) {
     }
     Vec3 torque;
     double shift = 0;
-    F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact);
+    F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact,
+                            delta > 0 ? roll : nullptr);
     if (shift != 0) shifts_.add(i, shift * normal);
     if (delta <= 0) continue;
     if (fric) p.torque[i] += torque;
@@ -93,8 +96,9 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
     const bool fric = law_.friction();
     Vec3 xi = fric ? p.wall_xi[i * p.walls + slot_] : Vec3::Zero(), torque;
     double impact = p.impacts ? p.wall_impact[i * p.walls + slot_] : 0.0;
+    Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + slot_] : Vec3::Zero();
     const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, fric ? &xi : nullptr, torque,
-                                   false, nullptr, &impact);  // the step already advanced the spring
+                                   false, nullptr, &impact, &roll);  // the step already advanced the springs
     out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
   }
 }

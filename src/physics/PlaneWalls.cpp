@@ -33,8 +33,10 @@ void PlaneWalls::force(Simulation& sim) {
       const double s = (p.x[i] - pl.point).dot(pl.normal);
       Vec3* xi = fric ? &p.wall_xi[i * p.walls + w] : nullptr;  // planes take the first slots
       double* impact = p.impacts ? &p.wall_impact[i * p.walls + w] : nullptr;  // Bridges restitution
+      Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + w] : nullptr;         // rolling resistance
       if (s >= a) {
         if (xi) xi->setZero();
+        if (roll) roll->setZero();
         // The exact scheme's exit step: touching a step ago (a - s + v_n dt > 0), parted now.
         // (A particle moves less than its radius per step: the tunnelling guard.)
         if (!exact || s >= 2 * a || a - s + p.v[i].dot(pl.normal) * dt <= 0) {
@@ -45,7 +47,8 @@ void PlaneWalls::force(Simulation& sim) {
       const double delta = a - s;
       Vec3 torque;
       double shift = 0;
-      p.f[i] += law_.wall_force(p, i, pl.normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact);
+      p.f[i] += law_.wall_force(p, i, pl.normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact,
+                                delta > 0 ? roll : nullptr);
       move += shift * pl.normal;
       if (fric && delta > 0) p.torque[i] += torque;
       if (delta / a > worst) { worst = delta / a; worst_id_ = p.id[i]; }
@@ -65,8 +68,9 @@ void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out)
       if (s >= p.radius[i]) continue;
       Vec3 spring = law_.friction() ? p.wall_xi[i * p.walls + w] : Vec3::Zero(), torque;
       double impact = p.impacts ? p.wall_impact[i * p.walls + w] : 0.0;
+      Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + w] : Vec3::Zero();
       const Vec3 f = law_.wall_force(p, i, pl.normal, p.radius[i] - s, law_.friction() ? &spring : nullptr, torque,
-                                     false, nullptr, &impact);  // the step already advanced the spring
+                                     false, nullptr, &impact, &roll);  // the step already advanced the springs
       out.push_back({p.id[i], p.x[i] - s * pl.normal, s * pl.normal, f});
     }
 }
