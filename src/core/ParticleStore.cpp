@@ -1,33 +1,62 @@
 #include "core/ParticleStore.hpp"
 
 #include <cstring>
+#include <type_traits>
 
 namespace cassini {
 
-void ParticleStore::resize(std::size_t n) {
-  id.resize(n);
-  species.resize(n);
-  radius.resize(n);
-  mass.resize(n);
-  inv_mass.resize(n);
-  x.resize(n);
-  v.resize(n);
-  f.resize(n, Vec3::Zero());
-  x_build.resize(n);
-  mode.resize(n, 0);
-  if (rotation) {
-    omega.resize(n, Vec3::Zero());
-    torque.resize(n, Vec3::Zero());
-    inv_inertia.resize(n);
-    wall_xi.resize(n * walls, Vec3::Zero());
+namespace {
+
+template <class T>
+T zero() {
+  if constexpr (std::is_same_v<T, Vec3>) return Vec3::Zero();
+  else return T{0};
+}
+
+// One entry as doubles in a migration buffer (ids bit-exactly, small integers as values).
+template <class T>
+void put(std::vector<double>& buf, const T& value) {
+  if constexpr (std::is_same_v<T, Vec3>) {
+    buf.insert(buf.end(), value.data(), value.data() + 3);
+  } else if constexpr (std::is_same_v<T, std::int64_t>) {
+    double d;
+    static_assert(sizeof d == sizeof value);
+    std::memcpy(&d, &value, sizeof d);
+    buf.push_back(d);
+  } else {
+    buf.push_back(static_cast<double>(value));
   }
-  if (impacts) wall_impact.resize(n * walls, 0.0);
-  if (rolling) wall_roll.resize(n * walls, Vec3::Zero());
+}
+template <class T>
+std::size_t get(const std::vector<double>& buf, std::size_t o, T& value) {
+  if constexpr (std::is_same_v<T, Vec3>) {
+    value = Vec3(buf[o], buf[o + 1], buf[o + 2]);
+    return o + 3;
+  } else if constexpr (std::is_same_v<T, std::int64_t>) {
+    std::memcpy(&value, &buf[o], sizeof value);
+    return o + 1;
+  } else {
+    value = static_cast<T>(buf[o]);
+    return o + 1;
+  }
+}
+template <class T>
+constexpr std::size_t doubles() {
+  return std::is_same_v<T, Vec3> ? 3 : 1;
+}
+
+}  // namespace
+
+void ParticleStore::resize(std::size_t n) {
+  for_each_column([&](auto& col, int width, bool) {
+    using T = typename std::decay_t<decltype(col)>::value_type;
+    col.resize(n * width, zero<T>());
+  });
 }
 
 void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3& pos, const Vec3& vel) {
   const std::size_t i = size();
-  resize(i + 1);
+  resize(i + 1);  // every column of the new particle zero
   id[i] = pid;
   species[i] = sp;
   radius[i] = a;
@@ -36,123 +65,56 @@ void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3
   x[i] = pos;
   v[i] = vel;
   x_build[i] = pos;
-  mode[i] = 0;
-  if (rotation) {
-    omega[i].setZero();
-    inv_inertia[i] = 1.0 / (0.4 * m * a * a);  // solid sphere: I = 2/5 m a^2
-    for (int w = 0; w < walls; ++w) wall_xi[i * walls + w].setZero();
-  }
-  if (impacts)
-    for (int w = 0; w < walls; ++w) wall_impact[i * walls + w] = 0;
-  if (rolling)
-    for (int w = 0; w < walls; ++w) wall_roll[i * walls + w].setZero();
+  if (rotation) inv_inertia[i] = 1.0 / (0.4 * m * a * a);  // solid sphere: I = 2/5 m a^2
 }
 
 void ParticleStore::copy(std::size_t from, std::size_t to) {
-  id[to] = id[from];
-  species[to] = species[from];
-  radius[to] = radius[from];
-  mass[to] = mass[from];
-  inv_mass[to] = inv_mass[from];
-  x[to] = x[from];
-  v[to] = v[from];
-  f[to] = f[from];
-  x_build[to] = x_build[from];
-  mode[to] = mode[from];
-  if (rotation) {
-    omega[to] = omega[from];
-    torque[to] = torque[from];
-    inv_inertia[to] = inv_inertia[from];
-    for (int w = 0; w < walls; ++w) wall_xi[to * walls + w] = wall_xi[from * walls + w];
-  }
-  if (impacts)
-    for (int w = 0; w < walls; ++w) wall_impact[to * walls + w] = wall_impact[from * walls + w];
-  if (rolling)
-    for (int w = 0; w < walls; ++w) wall_roll[to * walls + w] = wall_roll[from * walls + w];
+  for_each_column([&](auto& col, int width, bool) {
+    for (int w = 0; w < width; ++w) col[to * width + w] = col[from * width + w];
+  });
 }
 
 void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
   // Into a scratch array kept per element type, then swapped: no allocation after the first
   // rebuilds. A fresh array per column (as before) cost a page fault per 4 KiB at every rebuild,
   // and the ghosts appended next had to reallocate every column again.
-  auto apply = [&](auto& vec, std::size_t width) {
+  for_each_column([&](auto& vec, int width, bool) {
     using T = typename std::decay_t<decltype(vec)>::value_type;
     static thread_local std::vector<T> out;
     out.resize(order.size() * width);
     for (std::size_t k = 0; k < order.size(); ++k)
-      for (std::size_t w = 0; w < width; ++w) out[k * width + w] = vec[order[k] * width + w];
+      for (int w = 0; w < width; ++w) out[k * width + w] = vec[order[k] * width + w];
     vec.swap(out);
     if (vec.capacity() < out.capacity()) vec.reserve(out.capacity());  // room for the ghosts
-  };
-  apply(id, 1);
-  apply(species, 1);
-  apply(radius, 1);
-  apply(mass, 1);
-  apply(inv_mass, 1);
-  apply(x, 1);
-  apply(v, 1);
-  apply(f, 1);
-  apply(x_build, 1);
-  apply(mode, 1);
-  if (rotation) {
-    apply(omega, 1);
-    apply(torque, 1);
-    apply(inv_inertia, 1);
-    apply(wall_xi, walls);
-  }
-  if (impacts) apply(wall_impact, walls);
-  if (rolling) apply(wall_roll, walls);
+  });
   nlocal = order.size();
 }
 
 std::size_t ParticleStore::packed_size() const {
-  // id, species, radius, mass, x, v, x_build, f, mode (+ omega, torque, wall_xi) (+ wall_impact) (+ wall_roll)
-  return 5 + 12 + (rotation ? 6 + 3 * walls : 0) + (impacts ? walls : 0) + (rolling ? 3 * walls : 0);
+  std::size_t n = 0;
+  for_each_column([&](const auto& col, int width, bool migrates) {
+    using T = typename std::decay_t<decltype(col)>::value_type;
+    if (migrates) n += width * doubles<T>();
+  });
+  return n;
 }
 
 void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
-  double idd;
-  static_assert(sizeof(idd) == sizeof(id[i]));
-  std::memcpy(&idd, &id[i], sizeof idd);  // ids travel bit-exactly inside the double buffer
-  buf.push_back(idd);
-  buf.push_back(species[i]);
-  buf.push_back(radius[i]);
-  buf.push_back(mass[i]);
-  // f travels too: after a rebuild at the end of a step the next kick needs F(t).
-  for (const Vec3* q : {&x[i], &v[i], &x_build[i], &f[i]}) buf.insert(buf.end(), q->data(), q->data() + 3);
-  buf.push_back(mode[i]);
-  if (rotation) {
-    buf.insert(buf.end(), omega[i].data(), omega[i].data() + 3);
-    buf.insert(buf.end(), torque[i].data(), torque[i].data() + 3);
-    for (int w = 0; w < walls; ++w) buf.insert(buf.end(), wall_xi[i * walls + w].data(), wall_xi[i * walls + w].data() + 3);
-  }
-  if (impacts)
-    for (int w = 0; w < walls; ++w) buf.push_back(wall_impact[i * walls + w]);
-  if (rolling)
-    for (int w = 0; w < walls; ++w) buf.insert(buf.end(), wall_roll[i * walls + w].data(), wall_roll[i * walls + w].data() + 3);
+  for_each_column([&](const auto& col, int width, bool migrates) {
+    if (!migrates) return;
+    for (int w = 0; w < width; ++w) put(buf, col[i * width + w]);
+  });
 }
 
 std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o) {
-  std::int64_t pid;
-  std::memcpy(&pid, &buf[o], sizeof pid);
-  const Vec3 pos(buf[o + 4], buf[o + 5], buf[o + 6]);
-  const Vec3 vel(buf[o + 7], buf[o + 8], buf[o + 9]);
-  add(pid, static_cast<int>(buf[o + 1]), buf[o + 2], buf[o + 3], pos, vel);
-  const std::size_t i = size() - 1;
-  x_build[i] = Vec3(buf[o + 10], buf[o + 11], buf[o + 12]);
-  f[i] = Vec3(buf[o + 13], buf[o + 14], buf[o + 15]);
-  mode[i] = static_cast<std::uint8_t>(buf[o + 16]);
-  o += 17;
-  if (rotation) {
-    omega[i] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
-    torque[i] = Vec3(buf[o + 3], buf[o + 4], buf[o + 5]);
-    o += 6;
-    for (int w = 0; w < walls; ++w, o += 3) wall_xi[i * walls + w] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
-  }
-  if (impacts)
-    for (int w = 0; w < walls; ++w) wall_impact[i * walls + w] = buf[o++];
-  if (rolling)
-    for (int w = 0; w < walls; ++w, o += 3) wall_roll[i * walls + w] = Vec3(buf[o], buf[o + 1], buf[o + 2]);
+  const std::size_t i = size();
+  resize(i + 1);
+  for_each_column([&](auto& col, int width, bool migrates) {
+    if (!migrates) return;
+    for (int w = 0; w < width; ++w) o = get(buf, o, col[i * width + w]);
+  });
+  inv_mass[i] = 1.0 / mass[i];
+  if (rotation) inv_inertia[i] = 1.0 / (0.4 * mass[i] * radius[i] * radius[i]);
   return o;
 }
 

@@ -43,7 +43,7 @@ struct ParticleStore {
   std::size_t size() const { return id.size(); }
   std::size_t nghost() const { return size() - nlocal; }
 
-  void resize(std::size_t n);  // keeps [0, min(n, size)) intact
+  void resize(std::size_t n);  // keeps [0, min(n, size)) intact; new entries are zero
   void add(std::int64_t pid, int sp, double a, double m, const Vec3& pos, const Vec3& vel);
   void copy(std::size_t from, std::size_t to);  // every field
   // Reorders owned particles: new slot k takes old slot order[k]. Ghosts are dropped.
@@ -54,6 +54,38 @@ struct ParticleStore {
   void pack(std::size_t i, std::vector<double>& buf) const;
   // Appends an owned particle from buf at offset; returns the new offset.
   std::size_t unpack(const std::vector<double>& buf, std::size_t offset);
+
+  // Every per-particle array once: visit(array, entries per particle, migrates). resize, copy,
+  // reordering and migration all walk this list, so a new column is one line here (ghosts
+  // carry only what forces read: HaloExchange::build_ghosts). Columns that do not migrate are
+  // derived from others (unpack recomputes them).
+  template <class Visit>
+  void for_each_column(Visit&& visit) { columns(*this, visit); }
+  template <class Visit>
+  void for_each_column(Visit&& visit) const { columns(*this, visit); }
+
+ private:
+  template <class Self, class Visit>
+  static void columns(Self& p, Visit& visit) {
+    visit(p.id, 1, true);
+    visit(p.species, 1, true);
+    visit(p.radius, 1, true);
+    visit(p.mass, 1, true);
+    visit(p.inv_mass, 1, false);
+    visit(p.x, 1, true);
+    visit(p.v, 1, true);
+    visit(p.x_build, 1, true);
+    visit(p.f, 1, true);  // after a rebuild at the end of a step the next kick needs F(t)
+    visit(p.mode, 1, true);
+    if (p.rotation) {
+      visit(p.omega, 1, true);
+      visit(p.torque, 1, true);
+      visit(p.inv_inertia, 1, false);
+      visit(p.wall_xi, p.walls, true);
+    }
+    if (p.impacts) visit(p.wall_impact, p.walls, true);
+    if (p.rolling) visit(p.wall_roll, p.walls, true);
+  }
 };
 
 }  // namespace cassini
