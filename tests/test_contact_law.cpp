@@ -769,3 +769,55 @@ TEST(ContactLaw, SpinAboutTheNormalStopsUnderTwistingResistance) {
   EXPECT_TRUE(checked);
   EXPECT_LT(std::abs(sim->particles.omega[0][2]), 1e-6 * w0) << "at rest after the stopping time";
 }
+
+TEST(ContactLaw, HertzImpactOnTheMoonletSeesItsCurvature) {
+  // A Hertz particle (a = 1 mm) hits a small immovable moonlet (R = 2 mm, negligible mass)
+  // elastically at u = 0.1 m/s: the contact lasts the Hertz time with R* = a R / (a + R) = 2a/3,
+  // m* = m, E* = E / (2 (1 - nu^2)). A flat wall (R* = a) would last 8 % less.
+  const double a = 1e-3, R = 2e-3, u = 0.1, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  const double E = 63e9 / (2 * (1 - 0.25 * 0.25)), reff = a * R / (a + R);
+  const std::string text = R"(
+modules = ["contact", "moonlet"]
+[domain]
+lo = [-0.01, -0.01, -0.01]
+hi = [0.01, 0.01, 0.01]
+[moonlet]
+mass = 1.0e-12
+radius = 0.002
+[[species]]
+density = 2500.0
+radius = 0.001
+model = "hertz"
+youngs_modulus = 63.0e9
+poisson_ratio = 0.25
+impact_speed = 0.1
+e = 1.0
+[particles]
+init = "none"
+[time]
+n_c = 400
+end = 1.0
+)";
+  auto sim = make_sim(text);
+  const Vec3 dir = Vec3(2, 1, 2) / 3.0;
+  const double gap = 0.37 * u * sim->dt;
+  sim->particles.add(0, 0, a, m, (R + a + gap) * dir, -u * dir);
+  sim->setup();
+  bool touched = false, parted = false;
+  for (int s = 0; s < 100000 && !parted; ++s) {
+    sim->step();
+    const double clearance = sim->particles.x[0].norm() - R - a;
+    if (clearance < 0) touched = true;
+    if (touched && clearance >= 0) {
+      const double vr = sim->particles.v[0].dot(dir);
+      const double duration = sim->time - clearance / vr - gap / u;
+      // The Hertz time, as in HertzCollisionLastsTheHertzTimeAndRestitutesEAtAnySpeed (I = 1.4716...).
+      const double I = std::sqrt(std::numbers::pi) * std::tgamma(1.4) / std::tgamma(0.9);
+      const double dmax = std::pow(15 * m * u * u / (16 * E * std::sqrt(reff)), 0.4);
+      EXPECT_NEAR(duration / (2 * I * dmax / u), 1, 1e-3);
+      EXPECT_NEAR(vr / u, 1, 1e-4);
+      parted = true;
+    }
+  }
+  EXPECT_TRUE(parted);
+}

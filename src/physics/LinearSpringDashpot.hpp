@@ -352,9 +352,11 @@ class LinearSpringDashpot {
   // set by the first evaluation of a contact, cleared by its exit step; the caller clears it
   // when a particle is away from the wall without an exit step.
   // roll: the (particle, wall) rolling-resistance torque spring (ParticleStore::wall_roll), or
-  // nullptr; its torque joins `torque`.
+  // nullptr; its torque joins `torque`. wall_radius: the surface's radius of curvature for Hertz
+  // and rolling resistance (a sphere such as the moonlet: R* = a R / (a + R)); 0: flat (R* = a).
   Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque,
-                  bool advance = true, double* shift = nullptr, double* impact = nullptr, Vec3* roll = nullptr) const {
+                  bool advance = true, double* shift = nullptr, double* impact = nullptr, Vec3* roll = nullptr,
+                  double wall_radius = 0) const {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
     const int sp = p.species[i];
@@ -369,11 +371,11 @@ class LinearSpringDashpot {
     }
     if (xi) vrel -= a * p.omega[i].cross(n);
     double overlap_shift = 0;
-    // A wall is flat for Hertz and rolling (R* = a); the moonlet's curvature (a R / (a + R)) is ignored.
+    const double reff = wall_radius > 0 ? a * wall_radius / (a + wall_radius) : a;
     const bool rolls = roll && xi && delta > 0 && (L->mu_r > 0 || L->mu_o > 0);
     Rolling rl;
     if (rolls) rl = {p.omega[i], 1.4 * p.mass[i] * a * a, *roll};  // the wall does not spin; I + m a^2
-    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, a, rolls ? &rl : nullptr);
+    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, reff, rolls ? &rl : nullptr);
     if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
     if (xi) torque = (-a * n).cross(ft) + rl.torque;  // frictionless walls exert no torque: skip the work
     else torque.setZero();

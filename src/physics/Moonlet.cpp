@@ -75,7 +75,7 @@ void Moonlet::force(Simulation& sim) {
     Vec3 torque;
     double shift = 0;
     F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact,
-                            delta > 0 ? roll : nullptr);
+                            delta > 0 ? roll : nullptr, radius_);
     if (shift != 0) shifts_.add(i, shift * normal);
     if (delta <= 0) continue;
     if (fric) p.torque[i] += torque;
@@ -98,7 +98,7 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
     double impact = p.impacts ? p.wall_impact[i * p.walls + slot_] : 0.0;
     Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + slot_] : Vec3::Zero();
     const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, fric ? &xi : nullptr, torque,
-                                   false, nullptr, &impact, &roll);  // the step already advanced the springs
+                                   false, nullptr, &impact, &roll, radius_);  // the step already advanced the springs
     out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
   }
 }
