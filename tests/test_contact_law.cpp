@@ -293,12 +293,10 @@ end = 1.0
   }
 }
 
-TEST(ContactLaw, MoonletCollisionRestitutesWithTheParticlesLaw) {
-  // A particle dropped radially onto the moonlet (its gravity negligible: 1 kg) rebounds with
-  // the species' e over the species' t_c: the moonlet is an immovable wall (m_ij = m_i). Exact
-  // scheme: to round-off, as for pairs.
-  for (double e : {0.25, 0.9}) {
-    const std::string text = R"(
+namespace {
+// A 150 m moonlet of negligible mass (1 kg: no pull) in an empty box: the target of the
+// single-impact tests of particles (2 m, t_c = 1 s) on an immovable sphere.
+const char* kMoonletTarget = R"(
 modules = ["contact", "moonlet"]
 [domain]
 lo = [-400.0, -400.0, -400.0]
@@ -310,13 +308,21 @@ radius = 150.0
 density = 500.0
 radius = 2.0
 t_c = 1.0
+e = 0.5
 [particles]
 init = "none"
 [time]
 n_c = 50
 end = 1.0
 )";
-    auto sim = make_sim(text, {"species.0.e=" + std::to_string(e)});
+}  // namespace
+
+TEST(ContactLaw, MoonletCollisionRestitutesWithTheParticlesLaw) {
+  // A particle dropped radially onto the moonlet (its gravity negligible: 1 kg) rebounds with
+  // the species' e over the species' t_c: the moonlet is an immovable wall (m_ij = m_i). Exact
+  // scheme: to round-off, as for pairs.
+  for (double e : {0.25, 0.9}) {
+    auto sim = make_sim(kMoonletTarget, {"species.0.e=" + std::to_string(e)});
     const double a = 2.0, v = 0.05, m = 500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
     const Vec3 dir = Vec3(1, 2, 2) / 3.0;  // an arbitrary radial direction
     const double gap = 0.37 * v * sim->dt;
@@ -441,25 +447,7 @@ TEST(ContactLaw, BridgesRestitutionAtTheMoonletAndAPlaneWall) {
   // law of its own species with m_ij = m_i: e(u) at each of three impact speeds, exact scheme.
   const double v_c = 1e-3;
   for (double v : {5e-4, 0.05, 0.5}) {  // u / v_c = 0.5 (elastic), 50, 500
-    const std::string moonlet = with_bridges(R"(
-modules = ["contact", "moonlet"]
-[domain]
-lo = [-400.0, -400.0, -400.0]
-hi = [400.0, 400.0, 400.0]
-[moonlet]
-mass = 1.0
-radius = 150.0
-[[species]]
-density = 500.0
-radius = 2.0
-t_c = 1.0
-e = 0.5
-[particles]
-init = "none"
-[time]
-n_c = 23.7
-end = 1.0
-)", v_c);
+    const std::string moonlet = with_bridges(kMoonletTarget, v_c);
     const double a = 2.0, m = 500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
     // Starts the particle a fraction of a step short of touching, moving at v along -dir, and
     // returns its rebound speed along dir over v once it has parted (after the exact scheme's
@@ -478,7 +466,7 @@ end = 1.0
       }
       return -1.0;  // never parted
     };
-    auto sim = make_sim(moonlet);
+    auto sim = make_sim(moonlet, {"time.n_c=23.7"});
     const Vec3 dir = Vec3(1, 2, 2) / 3.0;
     EXPECT_NEAR(bounce(*sim, (150.0 + a) * dir, dir, [&](const Vec3& x) { return x.norm() - 150.0 - a; }),
                 bridges(v, v_c), 1e-9) << "moonlet, impact at " << v << " m/s";

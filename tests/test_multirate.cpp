@@ -216,37 +216,12 @@ TEST(MultiRate, PropellerGapsTrailDownstreamOfTheMoonlet) {
   // orbit (the Hill-radius scale, r_H = 228 m, where the gaps open). After one orbit ring at
   // y >= 100 m has drifted >= 9 km past the moonlet, so the downstream boxes hold only ring
   // that has met it. Measured: 101 / 203 outside, 99 / 191 inside (about half).
-  const char* scene = R"(
-seed = 2019
-modules = ["contact", "hill", "moonlet"]
-[domain]
-lo = [-9000.0, -1000.0, -10.0]
-hi = [9000.0, 1000.0, 10.0]
-boundary = ["periodic", "lees_edwards", "periodic"]
-planar = true
-[moonlet]
-mass = 1.27e10
-radius = 150.0
-[[species]]
-density = 500.0
-radius = 2.0
-e = 0.25
-t_c = 1.0
-[particles]
-init = "random"
-count = 30000
-shear_flow = true
-dispersion = 0.01
-[contact]
-skin = 4.0
-[time]
-n_c = 10
-end = 40840.0
-integrator = "multirate"
-[guards]
-max_overlap = 0.1
-)";
-  auto sim = make_sim(scene);
+  // kPropellerPatch grown to cases/propeller's box, particles, t_c, step, skin and integrator.
+  auto sim = make_sim(kPropellerPatch, {"seed=2019", "domain.lo=[-9000.0, -1000.0, -10.0]",
+                                        "domain.hi=[9000.0, 1000.0, 10.0]", "particles.count=30000",
+                                        "species.0.t_c=1.0", "time.n_c=10", "contact.skin=4.0",
+                                        "time.integrator=\"multirate\"", "time.end=40840.0",
+                                        "guards.max_overlap=0.1"});
   sim->setup();
   sim->run();
   auto count = [&](double x0, double x1, double y0, double y1) {
