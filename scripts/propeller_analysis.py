@@ -1,5 +1,6 @@
 """Propeller analysis of a ring run (thesis 6.2-6.3) from its H5MD snapshots via cassini-cg.
-   /usr/bin/python3 scripts/propeller_analysis.py RUN_DIR [--window 1000] [--out DIR]
+   /usr/bin/python3 scripts/propeller_analysis.py RUN_DIR [--window 1000] [--end T] [--copy 0] [--out DIR]
+Under modified Lees-Edwards boundaries the main box LE1 is analysed (--copy 1: the feed LE2).
 Writes sigma_map.png (log10 Sigma, like thesis fig. 6.4), fluctuation_map.png (fig. 6.8),
 linecut.png (Sigma along y at x = 990 m) and criteria.json:
   contrast   Sigma_max / Sigma_min along x = 990 m, ignoring 2w near y = +-Ly/2 (propeller if > 2)
@@ -23,6 +24,8 @@ ap.add_argument("--window", type=float, default=1000.0, help="time-average over 
 ap.add_argument("--width", type=float, default=100.0, help="Gaussian kernel width w (m)")
 ap.add_argument("--grid", default="200x50", help="CG grid (thesis: 10,000 points over the box)")
 ap.add_argument("--moonlet-mass", type=float, default=1.27e10)
+ap.add_argument("--end", type=float, default=None, help="window ends at this time (default: the last snapshot)")
+ap.add_argument("--copy", type=int, default=0, help="modified Lees-Edwards runs: 0 = LE1 (main box), 1 = LE2 (feed)")
 ap.add_argument("--out", default=None)
 a = ap.parse_args()
 out = a.out or a.run
@@ -32,14 +35,14 @@ snaps = sorted(glob.glob(os.path.join(a.run, "snap_*.h5md")))
 if not snaps:
     sys.exit(f"{a.run}: no snapshots (run with output.snapshot_every)")
 times = [float(h5py.File(s)["parameters/time_offset_dt"][0]) for s in snaps]
-t_end = max(times)
-frames = [s for s, t in zip(snaps, times) if t >= t_end - a.window]
+t_end = max(times) if a.end is None else max(t for t in times if t <= a.end + 1e-6)
+frames = [s for s, t in zip(snaps, times) if t_end - a.window <= t <= t_end]
 fields = os.path.join(out, "fields.h5")
 mpirun = ["mpirun", "--oversubscribe"] + (["--allow-run-as-root"] if os.getuid() == 0 else [])
 env = dict(os.environ, OMPI_MCA_btl_vader_single_copy_mechanism="none")
 subprocess.run(mpirun + ["-n", "2", os.path.join(ROOT, "build", "cassini-cg")] + frames +
                ["--grid", a.grid, "--width", str(a.width), "--kernel", "gauss", "--background", "shear",
-                "--out", fields, "--force"], check=True, env=env, stdout=subprocess.DEVNULL)
+                "--copy", str(a.copy), "--out", fields, "--force"], check=True, env=env, stdout=subprocess.DEVNULL)
 
 f = h5py.File(fields)
 x, y = f["grid_x"][:], f["grid_y"][:]
@@ -79,6 +82,8 @@ v_h = h * OMEGA0
 # radial dispersion: particle data of the last frame, relative to the shear flow
 last = h5py.File(frames[-1])
 vy = last["particles/grains/velocity/value"][0][:, 1]
+if "particles/grains/le_copy" in last:
+    vy = vy[last["particles/grains/le_copy/value"][0].ravel() == a.copy]
 dv_y = float(np.std(vy))
 result = dict(time=t_end, frames=len(frames), contrast=contrast, propeller_by_contrast=contrast > 2,
               hill_radius=h, v_H=v_h, dv_y=dv_y, propeller_by_velocity=v_h > dv_y)

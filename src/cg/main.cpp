@@ -133,7 +133,21 @@ struct Loaded {
 };
 
 // Each rank reads its block of rows of the snapshot.
-Loaded load(const std::string& path, int rank, int size) {
+// Modified Lees-Edwards runs hold two copies of the box in one snapshot (particles/grains/
+// le_copy): only particles of copy `copy` (0 = LE1, the main box; 1 = LE2, the feed) and their
+// contacts are kept. -1 keeps everything.
+template <class Keep>
+void keep_rows(std::vector<double>& a, int width, const Keep& keep) {
+  std::size_t out = 0;
+  for (std::size_t r = 0; r < a.size() / width; ++r)
+    if (keep(r)) {
+      for (int c = 0; c < width; ++c) a[out * width + c] = a[r * width + c];
+      ++out;
+    }
+  a.resize(out * width);
+}
+
+Loaded load(const std::string& path, int rank, int size, int copy) {
   if (!fs::exists(path)) fail(path + ": no such snapshot");
   hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
   hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
@@ -177,6 +191,37 @@ Loaded load(const std::string& path, int rank, int size) {
   if (H5Lexists(file, "contacts", H5P_DEFAULT) <= 0) fail(path + ": no contacts group");
   rows_block({"contacts/force", "contacts/position_i", "contacts/branch"}, {&f.contact_force, &f.contact_x, &f.contact_branch});
   rows_block({"contacts/wall_force", "contacts/wall_point", "contacts/wall_branch"}, {&f.wall_force, &f.wall_point, &f.wall_branch});
+  if (copy >= 0 && H5Lexists(file, (g + "le_copy").c_str(), H5P_DEFAULT) > 0) {
+    std::vector<double> ids(N), copies(N);
+    read(file, g + "id/value", 0, N, 1, ids.data());
+    read(file, g + "le_copy/value", 0, N, 1, copies.data());
+    std::vector<double> members;  // ids of the kept copy, sorted
+    for (hsize_t k = 0; k < N; ++k)
+      if (copies[k] == copy) members.push_back(ids[k]);
+    std::sort(members.begin(), members.end());
+    auto member = [&](double id) { return std::binary_search(members.begin(), members.end(), id); };
+    auto mine = [&](hsize_t r) { return copies[lo + r] == copy; };
+    keep_rows(f.x, 3, mine);
+    keep_rows(f.v, 3, mine);
+    keep_rows(f.m, 1, mine);
+    if (!f.body.empty()) keep_rows(f.body, 3, mine);
+    // The same blocks of contact rows as rows_block read; a pair belongs to the copy of its first particle.
+    auto filter_contacts = [&](const std::string& ids_path, int per_row, std::vector<std::vector<double>*> arrays) {
+      if (arrays[0]->empty() && H5Lexists(file, ids_path.c_str(), H5P_DEFAULT) <= 0) return;
+      hid_t d = must(H5Dopen2(file, ids_path.c_str(), H5P_DEFAULT), "missing dataset " + ids_path);
+      hid_t sp = H5Dget_space(d);
+      hsize_t dims[2] = {0, 0};
+      H5Sget_simple_extent_dims(sp, dims, nullptr);
+      H5Sclose(sp);
+      H5Dclose(d);
+      const hsize_t M = dims[0], clo = M * rank / size, cn = M * (rank + 1) / size - clo;
+      std::vector<double> pid(per_row * cn);
+      if (M > 0) read(file, ids_path, clo, cn, per_row, pid.data(), false);
+      for (auto* a : arrays) keep_rows(*a, 3, [&](std::size_t r) { return member(pid[r * per_row]); });
+    };
+    filter_contacts("contacts/pair_ids", 2, {&f.contact_force, &f.contact_x, &f.contact_branch});
+    filter_contacts("contacts/wall_particle", 1, {&f.wall_force, &f.wall_point, &f.wall_branch});
+  }
   double edges[9], origin[3], state[3], rate = 0, planar = 0;
   read(file, g + "box/edges/value", 0, 3, 3, edges);
   read(file, g + "box/origin", 0, 3, 1, origin, false);
@@ -306,6 +351,10 @@ int main(int argc, char** argv) {
                                       "up to the wall (for a system at rest)")->check(CLI::NonNegativeNumber);
   app.add_option("--out", out, "output HDF5 file (default fields.h5)");
   app.add_flag("--force", force, "overwrite an existing output file");
+  int copy = 0;
+  app.add_option("--copy", copy, "modified Lees-Edwards runs: the copy of the box to average, 0 = LE1 (the main box,\n"
+                                 "the default), 1 = LE2 (the moonlet-free feed), -1 = both (ignored for other runs)")
+      ->check(CLI::Range(-1, 1));
   bool mix_runs = false;
   app.add_flag("--mix-runs", mix_runs, "average frames of different runs (e.g. several seeds); refused without it");
   try {
@@ -338,7 +387,7 @@ int main(int argc, char** argv) {
     Grid g;
     std::string dims_note;
     for (std::size_t k = 0; k < files.size(); ++k) {
-      Loaded L = load(files[k], rank, size);
+      Loaded L = load(files[k], rank, size, copy);
       if (k == 0) {
         std::vector<int> n;
         if (!grid_spec.empty()) {

@@ -264,6 +264,9 @@ Config read_config(CaseFile& f) {
     c.moonlet_mass = positive(f, "moonlet.mass");
     c.moonlet_radius = positive(f, "moonlet.radius");
   }
+  c.modified_lees_edwards = f.boolean("domain.modified_lees_edwards", false);
+  if (c.modified_lees_edwards && !c.sheared())
+    f.fail("domain.modified_lees_edwards", "a \"lees_edwards\" y boundary (the feed copy LE2 is a sheared box)");
   if (c.sheared()) {
     // In the Hill frame the Keplerian shear is the natural default: v_x = 1.5 Omega0 y.
     const bool hill = c.has_module("hill");

@@ -65,6 +65,9 @@ struct Config {
   std::string decomposition = "slabs";  // slabs | metis (cells partitioned by METIS)
   long balance_every = 0;  // move the slab cuts to balance cost every this many rebuilds (0: never)
   double shear_rate = 0;  // Lees-Edwards gamma_dot (1/s); v_x = shear_rate * y is the imposed flow
+  // Modified Lees-Edwards boundaries (thesis fig. 9.1): a second, moonlet-free copy LE2 of the
+  // box runs alongside the main one LE1 and feeds it through the x boundaries (HaloExchange).
+  bool modified_lees_edwards = false;
 
   // Hill frame (module "hill"): Saturn at (0, -r0), frame rotating at Omega0
   std::string hill_form = "linear";  // linear | exact

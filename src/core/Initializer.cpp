@@ -70,7 +70,9 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
   const double limit = cfg.planar ? 0.50 : 0.35;  // below the random-sequential-addition jamming limits
   const std::string key = cfg.count > 0 ? "particles.count"
                           : cfg.optical_depth > 0 ? "particles.optical_depth" : "particles.volume_fraction";
-  const double moon = cfg.has_module("moonlet") ? cfg.moonlet_radius : -1;  // keep clear of the moonlet
+  // Keep clear of the moonlet; under modified Lees-Edwards boundaries this is the moonlet-free
+  // copy LE2, and place_particles leaves out of LE1 what the moonlet's body holds.
+  const double moon = cfg.has_module("moonlet") && !cfg.modified_lees_edwards ? cfg.moonlet_radius : -1;
   if (fraction > limit) {
     std::ostringstream os;
     os << "expected at most a " << (cfg.planar ? "area" : "volume") << " fraction of " << limit
@@ -258,15 +260,22 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
       species.push_back(cfg.init_species);
     }
   }
-  for (std::size_t k = 0; k < cands.size(); ++k) {
-    Vec3 x = cands[k].x;
-    for (int d = 0; d < 3; ++d)  // periodic axes: wrap into the box
-      if (cfg.periodic_like(d)) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
-    if (dom.owner(x) != dom.rank) continue;
-    const double a = cands[k].a;
-    const double m = cfg.species[species[k]].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
-    p.add(static_cast<std::int64_t>(k), species[k], a, m, x, velocities[k]);
-  }
+  // Modified Lees-Edwards boundaries: the same ring twice, LE1 (ids k) without what lies inside
+  // the moonlet, and LE2 (ids N + k) whole.
+  const std::size_t N = cands.size();
+  const double moon = cfg.has_module("moonlet") ? cfg.moonlet_radius : -1;
+  for (int copy = 0; copy < (cfg.modified_lees_edwards ? 2 : 1); ++copy)
+    for (std::size_t k = 0; k < N; ++k) {
+      Vec3 x = cands[k].x;
+      for (int d = 0; d < 3; ++d)  // periodic axes: wrap into the box
+        if (cfg.periodic_like(d)) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
+      if (dom.owner(x) != dom.rank) continue;
+      const double a = cands[k].a;
+      if (cfg.modified_lees_edwards && copy == 0 && moon > 0 && x.norm() < moon + a) continue;
+      const double m = cfg.species[species[k]].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+      p.add(static_cast<std::int64_t>(copy * N + k), species[k], a, m, x, velocities[k]);
+      if (p.copies) p.le_copy.back() = static_cast<std::uint8_t>(copy);
+    }
   p.nlocal = p.size();
 }
 

@@ -52,10 +52,14 @@ std::vector<std::size_t> NeighborList::spatial_order(const ParticleStore& p, con
 void NeighborList::build(const ParticleStore& p, const Decomposition& dom, double range, double skin) {
   const Grid g = make_grid(dom, range, p.size());
   const std::size_t n = p.size(), ncell = std::size_t(g.n[0]) * g.n[1] * g.n[2];
+  // Under modified Lees-Edwards boundaries each copy of the box has its own cells: particles of
+  // different copies are never candidates.
+  const std::size_t blocks = p.copies ? 2 : 1;
   cell_of_.resize(n);
-  cell_start_.assign(ncell + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) ++cell_start_[(cell_of_[i] = g.cell(p.x[i])) + 1];
-  for (std::size_t c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_start_.assign(blocks * ncell + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    ++cell_start_[(cell_of_[i] = g.cell(p.x[i]) + (p.copies ? p.le_copy[i] * ncell : 0)) + 1];
+  for (std::size_t c = 0; c < blocks * ncell; ++c) cell_start_[c + 1] += cell_start_[c];
   cell_items_.resize(n);
   {
     std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
@@ -79,7 +83,8 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   const int zr = g.n[2] > 1 ? 1 : 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     start[i] = static_cast<std::uint32_t>(partner.size());
-    const std::uint32_t c = cell_of_[i];
+    const std::size_t block = cell_of_[i] / ncell * ncell;
+    const std::uint32_t c = cell_of_[i] - block;
     const int cx = c % g.n[0], cy = (c / g.n[0]) % g.n[1], cz = c / (g.n[0] * g.n[1]);
     const Vec3 xi = X[i];
     const double ri = A[i] + skin;
@@ -90,7 +95,7 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
         const int y = cy + dy;
         if (y < 0 || y >= g.n[1]) continue;
         const int x0 = std::max(cx - 1, 0), x1 = std::min(cx + 1, g.n[0] - 1);
-        const std::size_t row = (std::size_t(z) * g.n[1] + y) * g.n[0];
+        const std::size_t row = block + (std::size_t(z) * g.n[1] + y) * g.n[0];
         // cells x0..x1 of one row are contiguous in cell_items_
         for (std::uint32_t k = cstart[row + x0]; k < cstart[row + x1 + 1]; ++k) {
           const Eigen::Vector4d& c = C[k];

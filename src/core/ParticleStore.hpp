@@ -18,6 +18,7 @@ struct ParticleStore {
   int walls = 0;          // number of wall planes (one tangential history slot each)
   bool impacts = false;   // fixed at start: true iff some restitution is set per impact (Bridges)
   bool rolling = false;   // fixed at start: true iff some pair resists rolling (needs rotation)
+  bool copies = false;    // fixed at start: true under modified Lees-Edwards boundaries
 
   std::size_t nlocal = 0;
 
@@ -39,6 +40,10 @@ struct ParticleStore {
   // The integrator's mode of the particle, carried through migration (multi-rate: on the
   // free epicycle or on contact steps; see MultiRateHill). 0 for the plain integrator.
   std::vector<std::uint8_t> mode;
+  // Modified Lees-Edwards boundaries only: the copy of the box the particle lives in, 0 = LE1
+  // (the main box, with the moonlet), 1 = LE2 (the moonlet-free feed). Particles of different
+  // copies never touch; ghosts carry it.
+  std::vector<std::uint8_t> le_copy;
 
   std::size_t size() const { return id.size(); }
   std::size_t nghost() const { return size() - nlocal; }
@@ -85,6 +90,7 @@ struct ParticleStore {
     }
     if (p.impacts) visit(p.wall_impact, p.walls, true);
     if (p.rolling) visit(p.wall_roll, p.walls, true);
+    if (p.copies) visit(p.le_copy, 1, true);
   }
 };
 

@@ -24,6 +24,7 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   particles.rotation = cfg.friction();
   particles.impacts = cfg.velocity_dependent_restitution();
   particles.rolling = cfg.rolling();
+  particles.copies = cfg.modified_lees_edwards;
   particles.walls = static_cast<int>(domain_walls(cfg).size());
   if (cfg.has_module("channel")) particles.walls += ChannelGeometry(cfg.channel).features();
   if (cfg.has_module("moonlet")) particles.walls += 1;  // the moonlet's spring: the last slot
@@ -98,19 +99,21 @@ void Simulation::rebuild() {
     particles.nlocal = particles.size();
     incoming.clear();
   }
+  // Wrapping a particle across a Lees-Edwards boundary changes its potential energy in the
+  // frame (the tide at y and y -+ L_y differ once it overshot the boundary): part of the
+  // shear's work for the energy bookkeeping (HaloExchange counts the velocity jumps), as are
+  // the particles the modified boundaries add and remove.
+  auto potential = [&] {
+    double u = 0;
+    for (const auto& m : modules) u += m->potential_energy(*this);
+    return u;
+  };
   {
     auto t = timers.scope(StageTimers::Comm);
-    // Wrapping a particle across a Lees-Edwards boundary changes its potential energy in the
-    // frame (the tide at y and y -+ L_y differ once it overshot the boundary): part of the
-    // shear's work for the energy bookkeeping (HaloExchange counts the velocity jumps).
-    auto potential = [&] {
-      double u = 0;
-      for (const auto& m : modules) u += m->potential_energy(*this);
-      return u;
-    };
     const double before = domain.shear.enabled ? potential() : 0.0;
     halo.migrate(particles, history);
     if (domain.shear.enabled) halo.shear_energy += potential() - before;
+    if (domain.fed_x) stillborn_potential_ = potential();  // clones removed below take theirs away
   }
   {
     auto t = timers.scope(StageTimers::Neighbour);
@@ -125,6 +128,12 @@ void Simulation::rebuild() {
     auto t = timers.scope(StageTimers::Neighbour);
     neighbors.build(particles, domain, range, skin + cfg.lubrication_reach);
   }
+  if (domain.fed_x && remove_stillborn()) {  // rare: ghosts and list again without them
+    halo.shear_energy += potential() - stillborn_potential_;
+    particles.permute_local(NeighborList::spatial_order(particles, domain, range));
+    halo.build_ghosts(particles);
+    neighbors.build(particles, domain, range, skin + cfg.lubrication_reach);
+  }
   if (domain.nranks > 1) {  // the cost balance the ranks actually ran with (summary.json)
     const double now = domain.imbalance(static_cast<double>(particles.nlocal + neighbors.size()));
     imbalance_sum += now;
@@ -135,6 +144,37 @@ void Simulation::rebuild() {
   for (std::size_t i = 0; i < particles.nlocal; ++i) particles.x_build[i] = particles.x[i];
   time_at_build_ = time;
   ++rebuilds;
+}
+
+bool Simulation::remove_stillborn() {
+  ParticleStore& p = particles;
+  std::vector<std::size_t> doomed;
+  if (halo.born_first < halo.next_id)  // clones were made at this rebuild's migration
+    for (std::size_t i = 0; i < p.nlocal; ++i) {
+      if (p.id[i] < halo.born_first || p.id[i] >= halo.next_id) continue;
+      for (std::uint32_t k = neighbors.start[i]; k < neighbors.start[i + 1]; ++k) {
+        const std::uint32_t j = neighbors.partner[k];
+        const double R = p.radius[i] + p.radius[j];
+        if ((p.x[i] - p.x[j]).squaredNorm() < R * R) {
+          doomed.push_back(i);
+          break;
+        }
+      }
+    }
+  int mine = doomed.empty() ? 0 : 1, any = 0;
+  MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, domain.comm);
+  if (!any) return false;
+  p.resize(p.nlocal);  // drop ghosts; then remove from the back so that slots stay valid
+  for (auto it = doomed.rbegin(); it != doomed.rend(); ++it) {
+    halo.shear_energy -= 0.5 * p.mass[*it] * p.v[*it].squaredNorm();  // its potential: Simulation::rebuild
+    const std::size_t last = p.nlocal - 1;
+    if (*it != last) p.copy(last, *it);
+    p.nlocal = last;
+    p.resize(last);
+  }
+  halo.stillborn += static_cast<std::int64_t>(doomed.size());
+  halo.fed -= static_cast<std::int64_t>(doomed.size());
+  return true;
 }
 
 void Simulation::compute_forces() {

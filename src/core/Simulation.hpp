@@ -139,6 +139,9 @@ class Simulation {
 
  private:
   void compute_forces();
+  // Modified Lees-Edwards boundaries: removes this rebuild's clones that overlap LE1 material
+  // (see HaloExchange::born). Collective; true if any rank removed one.
+  bool remove_stillborn();
   void check_guards();
   void check_initial_overlaps();
   bool global_guard_pending();
@@ -147,6 +150,7 @@ class Simulation {
   bool guard_dumped_ = false;
   RunOutput* output_ = nullptr;  // during run(): where a tripped guard dumps its state
   double time_at_build_ = 0;
+  double stillborn_potential_ = 0;
   friend void read_snapshot(Simulation&, const std::string&);
 };
 

@@ -139,7 +139,7 @@ void RunOutput::observe(Simulation& sim) {
   const double ke = sim.kinetic_energy(), pe = sim.elastic_energy();
   const Vec3 mom = sim.momentum();
   const long n = sim.total_particles();
-  double local[10] = {0};
+  double local[11] = {0};
   for (std::size_t i = 0; i < p.nlocal; ++i) local[0] += p.mass[i];
   double mass = 0;
   MPI_Allreduce(&local[0], &mass, 1, MPI_DOUBLE, MPI_SUM, comm_);
@@ -152,8 +152,13 @@ void RunOutput::observe(Simulation& sim) {
   local[5] = sim.contact ? double(sim.contact->take_collisions()) : 0.0;
   local[6] = sim.contact ? sim.contact->overlap_sum() : 0.0;
   local[7] = sim.moonlet ? double(sim.moonlet->contacts()) : 0.0;
-  double sums[10];
-  MPI_Allreduce(local, sums, 8, MPI_DOUBLE, MPI_SUM, comm_);
+  if (p.copies) {  // modified Lees-Edwards boundaries: LE1's population and the feed's counts
+    for (std::size_t i = 0; i < p.nlocal; ++i) local[8] += p.le_copy[i] == 0;
+    local[9] = double(sim.halo.fed);
+    local[10] = double(sim.halo.drained);
+  }
+  double sums[11];
+  MPI_Allreduce(local, sums, 11, MPI_DOUBLE, MPI_SUM, comm_);
   double overlap = sim.contact ? sim.contact->max_overlap_fraction() : 0.0, max_overlap = 0;
   MPI_Allreduce(&overlap, &max_overlap, 1, MPI_DOUBLE, MPI_MAX, comm_);
   if (rank_ != 0) return;
@@ -166,8 +171,7 @@ void RunOutput::observe(Simulation& sim) {
   // Granular temperature: the mean velocity variance over the axes that move.
   const int dims = sim.cfg.planar ? 2 : 3;
   const std::vector<double> variance = {sums[1] / mass, sums[2] / mass, sums[3] / mass};
-  h5obs_->append(sim.step_count, sim.time,
-                 {{"particles", {double(n)}},
+  ObservablesFile::Row row = {{"particles", {double(n)}},
                   {"kinetic_energy", {ke}},
                   {"elastic_energy", {pe}},
                   {"momentum", {mom[0], mom[1], mom[2]}},
@@ -177,7 +181,10 @@ void RunOutput::observe(Simulation& sim) {
                   {"collisions", {sums[5]}},
                   {"mean_overlap_over_radius", {contacts > 0 ? sums[6] / contacts : 0.0}},
                   {"max_overlap_over_radius", {max_overlap}},
-                  {"moonlet_contacts", {sums[7]}}});
+                  {"moonlet_contacts", {sums[7]}}};
+  if (p.copies)
+    row.insert(row.end(), {{"le1_particles", {sums[8]}}, {"fed_into_le1", {sums[9]}}, {"drained_from_le1", {sums[10]}}});
+  h5obs_->append(sim.step_count, sim.time, row);
 }
 
 void RunOutput::snapshot(Simulation& sim) {

@@ -128,8 +128,9 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   const int nw = p.rotation ? p.walls : 0;
   const int ni = p.impacts ? p.walls : 0, nr = p.rolling ? p.walls : 0;
   // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], [wall_impact * ni],
-  // [wall_roll * nr], body force
-  const std::size_t width = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + ni + 3 * nr + 3;
+  // [wall_roll * nr], body force, [copy]
+  const std::size_t tail = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + ni + 3 * nr + 3;
+  const std::size_t width = tail + (p.copies ? 1 : 0);
   std::vector<Vec3> body(p.nlocal, Vec3::Zero());  // the non-contact forces, for cassini-cg (3.34)
   for (const auto& m : sim.modules) m->add_body_forces(sim, body);
 
@@ -151,6 +152,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     for (int w = 0; w < ni; ++w) r.push_back(p.wall_impact[i * ni + w]);
     for (int w = 0; w < nr; ++w) r.insert(r.end(), p.wall_roll[i * nr + w].data(), p.wall_roll[i * nr + w].data() + 3);
     r.insert(r.end(), body[i].data(), body[i].data() + 3);
+    if (p.copies) r.push_back(p.le_copy[i]);
   }
   std::vector<int> sc(P), rc(P), sd(P), rd(P);
   std::vector<double> sendbuf, in;
@@ -174,7 +176,7 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
 
   // Column arrays in id order.
   std::vector<std::int64_t> ids(n);
-  std::vector<std::int32_t> species(n);
+  std::vector<std::int32_t> species(n), copy(p.copies ? n : 0);
   std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n), w(p.rotation ? 3 * n : 0),
       t(p.rotation ? 3 * n : 0), wx(3 * nw * n), wi(ni * n), wr(3 * nr * n), bf(3 * n);
   for (std::size_t k = 0; k < n; ++k) {
@@ -190,9 +192,10 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       if (p.rotation) { w[3 * k + c] = r[13 + c]; t[3 * k + c] = r[16 + c]; }
     }
     for (int c = 0; c < 3 * nw; ++c) wx[3 * nw * k + c] = r[19 + c];
-    for (int c = 0; c < ni; ++c) wi[ni * k + c] = r[width - 3 - 3 * nr - ni + c];
-    for (int c = 0; c < 3 * nr; ++c) wr[3 * nr * k + c] = r[width - 3 - 3 * nr + c];
-    for (int c = 0; c < 3; ++c) bf[3 * k + c] = r[width - 3 + c];
+    for (int c = 0; c < ni; ++c) wi[ni * k + c] = r[tail - 3 - 3 * nr - ni + c];
+    for (int c = 0; c < 3 * nr; ++c) wr[3 * nr * k + c] = r[tail - 3 - 3 * nr + c];
+    for (int c = 0; c < 3; ++c) bf[3 * k + c] = r[tail - 3 + c];
+    if (p.copies) copy[k] = static_cast<std::int32_t>(r[tail]);
   }
 
   std::ostringstream name;
@@ -229,6 +232,8 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
     }
     if (ni > 0) element(grains, "wall_impact", H5T_NATIVE_DOUBLE, N, off, rows, ni, wi.data(), step, time, dxpl);
     if (nr > 0) element(grains, "wall_roll", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nr, wr.data(), step, time, dxpl);
+    // Modified Lees-Edwards boundaries: 0 = LE1 (the main box), 1 = LE2 (the moonlet-free feed).
+    if (p.copies) element(grains, "le_copy", H5T_NATIVE_INT32, N, off, rows, 1, copy.data(), step, time, dxpl);
     {
       Handle box = group(grains, "box");
       attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
@@ -306,6 +311,13 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
       MPI_Allreduce(counts, total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
       state.push_back({"halo.removed", double(total[0])});
       state.push_back({"halo.removed_upper", double(total[1])});
+      if (dom.fed_x) {  // the same on every rank
+        long long fed[2] = {sim.halo.fed, sim.halo.drained}, fed_total[2];
+        MPI_Allreduce(fed, fed_total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
+        state.push_back({"halo.next_id", double(sim.halo.next_id)});
+        state.push_back({"halo.fed", double(fed_total[0])});
+        state.push_back({"halo.drained", double(fed_total[1])});
+      }
       Handle pg = group(file, "parameters");
       Handle sg = group(pg, "state");
       for (const auto& [key, value] : state) small_dataset(sg, key, H5T_NATIVE_DOUBLE, {1}, &value, dxpl);
@@ -444,6 +456,13 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     std::vector<double> wr(3 * nr * n, 0.0);
     if (nr > 0 && H5Lexists(file, (g + "wall_roll").c_str(), H5P_DEFAULT) > 0)
       read_rows(file, g + "wall_roll/value", H5T_NATIVE_DOUBLE, lo, n, 3 * nr, wr.data(), dxpl);
+    std::vector<std::int32_t> copy(p.copies ? n : 0, 0);
+    if (p.copies) {
+      if (H5Lexists(file, (g + "le_copy").c_str(), H5P_DEFAULT) <= 0)
+        throw ConfigError(path + ": the case has domain.modified_lees_edwards but the snapshot has no "
+                                 "particles/grains/le_copy (it was written without it)");
+      read_rows(file, g + "le_copy/value", H5T_NATIVE_INT32, lo, n, 1, copy.data(), dxpl);
+    }
     double state[3];
     std::int64_t step = 0;
     read_rows(file, "parameters/time_offset_dt", H5T_NATIVE_DOUBLE, 0, 3, 1, state, dxpl, false);
@@ -476,6 +495,7 @@ void read_snapshot(Simulation& sim, const std::string& path) {
           p.wall_xi[k * nw + q] = Vec3(wx[3 * nw * k + 3 * q], wx[3 * nw * k + 3 * q + 1], wx[3 * nw * k + 3 * q + 2]);
       }
       for (int q = 0; q < ni; ++q) p.wall_impact[k * ni + q] = wi[ni * k + q];
+      if (p.copies) p.le_copy[k] = static_cast<std::uint8_t>(copy[k]);
       for (int q = 0; q < nr; ++q)
         p.wall_roll[k * nr + q] = Vec3(wr[3 * nr * k + 3 * q], wr[3 * nr * k + 3 * q + 1], wr[3 * nr * k + 3 * q + 2]);
     }
@@ -506,6 +526,9 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     if (sim.domain.rank == 0 && sim.restart_value("halo.removed", count)) sim.halo.removed = static_cast<std::int64_t>(count);
     if (sim.domain.rank == 0 && sim.restart_value("halo.removed_upper", count))
       sim.halo.removed_upper = static_cast<std::int64_t>(count);
+    if (sim.restart_value("halo.next_id", count)) sim.halo.next_id = static_cast<std::int64_t>(count);
+    if (sim.domain.rank == 0 && sim.restart_value("halo.fed", count)) sim.halo.fed = static_cast<std::int64_t>(count);
+    if (sim.domain.rank == 0 && sim.restart_value("halo.drained", count)) sim.halo.drained = static_cast<std::int64_t>(count);
     sim.step_count = step;
     sim.time = state[0];
     sim.domain.shear.offset = state[1];

@@ -20,6 +20,7 @@ Decomposition::Decomposition(const Config& cfg, MPI_Comm c) : comm(c) {
   cuts[nranks] = hi[axis];
   shear.enabled = cfg.sheared();
   shear.rate = cfg.shear_rate;
+  fed_x = cfg.modified_lees_edwards;
 }
 
 void Decomposition::use_cells(double range) {

@@ -38,6 +38,9 @@ struct Decomposition {
   std::array<Boundary, 3> boundary{};
   std::vector<double> cuts;  // nranks + 1 entries, cuts.front() = lo[axis], cuts.back() = hi[axis]
   ShearBoundary shear;
+  // Modified Lees-Edwards boundaries (Config::modified_lees_edwards): across x, LE1 (copy 0)
+  // is open and sees LE2 (copy 1) beyond it, and LE2 feeds what crosses into LE1.
+  bool fed_x = false;
   // Cell ownership ("metis"): empty in slab mode.
   std::array<int, 3> ncell{1, 1, 1};
   Vec3 cell_size;

@@ -54,8 +54,55 @@ void HaloExchange::exchange(std::vector<std::vector<double>>& out, std::vector<d
                 rdispl.data(), MPI_DOUBLE, dom_.comm);
 }
 
+namespace {
+// Crossed the x boundary, not the sheared one (a sheared crossing keeps a particle in its copy).
+bool crossed_x_only(const Decomposition& dom, const Vec3& x) {
+  return x[1] >= dom.lo[1] && x[1] < dom.hi[1] && (x[0] < dom.lo[0] || x[0] >= dom.hi[0]);
+}
+}  // namespace
+
+void HaloExchange::feed(ParticleStore& p) {
+  if (next_id < 0) {  // a fresh run: ids after every initial one
+    std::int64_t mine = -1;
+    for (std::size_t i = 0; i < p.nlocal; ++i) mine = std::max(mine, p.id[i]);
+    MPI_Allreduce(&mine, &next_id, 1, MPI_INT64_T, MPI_MAX, dom_.comm);
+    ++next_id;
+  }
+  std::vector<std::int64_t> sources;
+  std::vector<std::size_t> slots;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.le_copy[i] == 1 && crossed_x_only(dom_, p.x[i])) {
+      sources.push_back(p.id[i]);
+      slots.push_back(i);
+    }
+  // Every rank learns every crossing id, so the clones' ids do not depend on the rank count.
+  int n = static_cast<int>(sources.size());
+  std::vector<int> counts(dom_.nranks), displ(dom_.nranks, 0);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, dom_.comm);
+  for (int r = 1; r < dom_.nranks; ++r) displ[r] = displ[r - 1] + counts[r - 1];
+  std::vector<std::int64_t> all(displ.back() + counts.back());
+  MPI_Allgatherv(sources.data(), n, MPI_INT64_T, all.data(), counts.data(), displ.data(), MPI_INT64_T, dom_.comm);
+  std::sort(all.begin(), all.end());
+  const double Lx = dom_.length[0];
+  for (std::size_t k = 0; k < slots.size(); ++k) {
+    const std::size_t j = p.size();
+    p.resize(j + 1);
+    p.copy(slots[k], j);  // its whole state: the clone is where its original re-enters LE2
+    p.le_copy[j] = 0;
+    p.id[j] = next_id + (std::lower_bound(all.begin(), all.end(), sources[k]) - all.begin());
+    p.x[j][0] -= Lx * std::floor((p.x[j][0] - dom_.lo[0]) / Lx);
+    if (p.x[j][0] >= dom_.hi[0]) p.x[j][0] = dom_.lo[0];
+    shear_energy += 0.5 * p.mass[j] * p.v[j].squaredNorm();  // the boundary's work (energy guard)
+  }
+  p.nlocal = p.size();
+  born_first = next_id;  // the clones of every rank: ids [born_first, next_id), wherever they migrate
+  next_id += static_cast<std::int64_t>(all.size());
+  fed += static_cast<std::int64_t>(slots.size());
+}
+
 void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history) {
   p.resize(p.nlocal);  // drop ghosts
+  if (dom_.fed_x) feed(p);
   std::sort(history.begin(), history.end(), [](const HistoryEntry& a, const HistoryEntry& b) {
     return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
   });
@@ -63,7 +110,12 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
   const Vec3 L = dom_.length;
   for (std::size_t i = p.nlocal; i-- > 0;) {
     Vec3& x = p.x[i];
-    bool gone = false;
+    const bool drain = dom_.fed_x && p.le_copy[i] == 0 && crossed_x_only(dom_, x);  // left LE1: removed
+    bool gone = drain;
+    if (drain) {
+      ++drained;
+      shear_energy -= 0.5 * p.mass[i] * p.v[i].squaredNorm();
+    }
     if (dom_.shear.enabled) {  // crossing the sheared boundary: shift x, jump vx
       const double off = dom_.shear.wrapped(L[0]), dv = dom_.shear.rate * L[1];
       double jump = 0;
@@ -99,7 +151,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
           buf.push_back(h->impact);
           buf.insert(buf.end(), h->roll.data(), h->roll.data() + 3);
         }
-      } else {
+      } else if (!drain) {
         ++removed;
       }
       const std::size_t last = p.nlocal - 1;
@@ -147,22 +199,50 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
         if (x[d] >= dom_.hi[d] - range_) cand[d][nc[d]++] = -1;
       }
     }
+    const std::uint8_t copy = p.copies ? p.le_copy[i] : 0;
+    // Modified Lees-Edwards boundaries: upstream of LE1's inflow faces lies LE2. An LE2
+    // particle within range of the face its flow leaves through is also an LE1 ghost beyond
+    // the opposite (inflow) face, at x + inflow L. Beyond an outflow face LE2 would show LE1's
+    // own material a second time (LE1 is LE2 plus the moonlet's disturbance): LE1 sees nothing
+    // there, and LE1 particles have no x images. Across y each copy is an ordinary sheared box.
+    int inflow = 0;
+    if (dom_.fed_x && copy == 1) {
+      const double flow = dom_.shear.rate * x[1];  // the imposed flow v_x
+      if (flow > 0 && x[0] >= dom_.hi[0] - range_) inflow = -1;
+      else if (flow < 0 && x[0] < dom_.lo[0] + range_) inflow = 1;
+    }
     for (int iy = 0; iy < nc[1]; ++iy) {
       const std::int8_t ky = cand[1][iy];
-      // A sheared image's x moves by the offset, so it may need any x wrap to land near the box.
-      std::int8_t kxs[6];
+      // (x image, copy) pairs. A sheared image's x moves by the offset, so it may need any x
+      // wrap to land near the box.
+      std::int8_t kxs[12], copies[12];
       int nkx = 0;
-      if (sheared && ky != 0) {
+      auto sheared_wraps = [&](int base, std::uint8_t c) {
         for (int kx = -2; kx <= 2; ++kx) {
-          const double xi = x[0] + ky * off + kx * L[0];
-          if (xi >= dom_.lo[0] - range_ && xi < dom_.hi[0] + range_) kxs[nkx++] = static_cast<std::int8_t>(kx);
+          const double xi = x[0] + ky * off + (base + kx) * L[0];
+          if (xi >= dom_.lo[0] - range_ && xi < dom_.hi[0] + range_) {
+            kxs[nkx] = static_cast<std::int8_t>(base + kx);
+            copies[nkx++] = c;
+          }
         }
+      };
+      if (sheared && ky != 0) {
+        sheared_wraps(0, copy);
       } else {
-        for (int ix = 0; ix < nc[0]; ++ix) kxs[nkx++] = cand[0][ix];
+        for (int ix = 0; ix < nc[0]; ++ix) {
+          const std::int8_t kx = cand[0][ix];
+          if (dom_.fed_x && kx != 0 && copy == 0) continue;
+          kxs[nkx] = kx;
+          copies[nkx++] = copy;
+          if (dom_.fed_x && kx != 0 && kx == inflow) {
+            kxs[nkx] = kx;
+            copies[nkx++] = 0;
+          }
+        }
       }
       for (int ix = 0; ix < nkx; ++ix)
         for (int iz = 0; iz < nc[2]; ++iz) {
-          Image im{static_cast<std::uint32_t>(i), {kxs[ix], ky, cand[2][iz]}};
+          const Image im{static_cast<std::uint32_t>(i), {kxs[ix], ky, cand[2][iz]}, copies[ix]};
           dom_.ranks_near(x + shift(im), range_, near_);
           for (const int r : near_)
             if (r != dom_.rank || im.k[0] != 0 || im.k[1] != 0 || im.k[2] != 0) send_[r].push_back(im);
@@ -180,10 +260,11 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
       b.insert(b.end(), {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
                          p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2], double(p.mode[i])});
       if (p.rotation) b.insert(b.end(), p.omega[i].data(), p.omega[i].data() + 3);
+      if (p.copies) b.push_back(im.copy);
     }
   std::vector<double> in;
   exchange(out, in);
-  const std::size_t width = 11 + (p.rotation ? 3 : 0);
+  const std::size_t width = 11 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0);
   const std::size_t n = in.size() / width;
   // Remember the receive sizes of the per-step update; one more Alltoall gives them.
   std::vector<int> scount(dom_.nranks);
@@ -205,6 +286,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
     p.v[j] = Vec3(b[7], b[8], b[9]);
     p.mode[j] = static_cast<std::uint8_t>(b[10]);
     if (p.rotation) p.omega[j] = Vec3(b[11], b[12], b[13]);
+    if (p.copies) p.le_copy[j] = static_cast<std::uint8_t>(b[width - 1]);
   }
   out_.assign(dom_.nranks, {});
 }

@@ -42,12 +42,26 @@ class HaloExchange {
   double shear_momentum = 0;  // sum of m dv_x applied by Lees-Edwards crossings on this rank
   double shear_energy = 0;    // kinetic energy those velocity jumps added (the shear's work)
   std::int64_t shear_crossings = 0;  // particles wrapped through the sheared boundary here
+  // Modified Lees-Edwards boundaries (Decomposition::fed_x): LE2 particles that crossed x and
+  // were copied into LE1, LE1 particles that left through x and were removed (on this rank),
+  // and the next free particle id (the same on every rank; a snapshot keeps it).
+  std::int64_t fed = 0, drained = 0;
+  std::int64_t next_id = -1;
+  std::int64_t born_first = 0;  // the clones made at the last migration (all ranks) have ids [born_first, next_id)
+  // Clones that would overlap LE1 material are not inserted, as an inlet refuses an overlapping
+  // bead: LE1 particles across a y face of the corner the clone enters by could not see its
+  // original (Simulation::rebuild removes them once the new neighbour list shows the overlap).
+  std::int64_t stillborn = 0;
 
  private:
   struct Image {
     std::uint32_t index;  // owned particle
     std::int8_t k[3];     // image shift in box lengths per axis
+    std::uint8_t copy;    // the copy the ghost belongs to (modified Lees-Edwards; else unused)
   };
+  // Modified Lees-Edwards boundaries: the clones of the LE2 particles that crossed x, with new
+  // ids agreed by every rank (ordered by the crossing particle's id).
+  void feed(ParticleStore& p);
   Vec3 shift(const Image& im) const;
   double shear_velocity(const Image& im) const;
   // Alltoallv of per-rank buffers. With `rcount` given, the receive sizes are known and the

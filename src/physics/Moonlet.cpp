@@ -37,7 +37,11 @@ void Moonlet::force(Simulation& sim) {
     F[i][1] += s * y;
     F[i][2] += s * z;
   };
-  if (!T.list)  // the plain loop for all: it vectorises
+  if (p.copies)  // modified Lees-Edwards boundaries: only LE1 holds the moonlet
+    for (std::size_t t = 0; t < T.count; ++t) {
+      if (p.le_copy[T[t]] == 0) pull(T[t]);
+    }
+  else if (!T.list)  // the plain loop for all: it vectorises
     for (std::size_t i = 0; i < T.count; ++i) pull(i);
   else
     for (std::size_t t = 0; t < T.count; ++t) pull(T[t]);
@@ -48,6 +52,7 @@ void Moonlet::force(Simulation& sim) {
   shifts_.clear();
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
+    if (!feels(p, i)) continue;
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
     const double d2 = x * x + y * y + z * z, reach = R + A[i];
     // With friction each particle keeps a tangential spring with the moonlet (its last wall
@@ -89,6 +94,7 @@ void Moonlet::force(Simulation& sim) {
 void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!feels(p, i)) continue;
     Vec3 r = p.x[i];
     if (dims_ == 2) r[2] = 0;
     const double d = r.norm();
@@ -107,6 +113,7 @@ double Moonlet::potential_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
   double u = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!feels(p, i)) continue;
     const double z = dims_ == 2 ? 0.0 : p.x[i][2];
     const double r = std::sqrt(p.x[i][0] * p.x[i][0] + p.x[i][1] * p.x[i][1] + z * z);
     u -= p.mass[i] * gm_ * (r >= radius_ ? 1 / r : (3 * radius_ * radius_ - r * r) / (2 * radius_ * radius_ * radius_));
@@ -116,7 +123,8 @@ double Moonlet::potential_energy(const Simulation& sim) const {
 
 void Moonlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
-  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * gravity(p.x[i]);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (feels(p, i)) F[i] += p.mass[i] * gravity(p.x[i]);
 }
 
 void Moonlet::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }

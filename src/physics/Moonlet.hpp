@@ -10,6 +10,7 @@
 
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ParticleStore.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 namespace cassini {
@@ -27,6 +28,12 @@ class Moonlet : public Module {
   double potential_energy(const Simulation& sim) const override;  // -G M m / r (uniform sphere inside)
 
   Vec3 gravity(const Vec3& x) const;  // acceleration at x
+  // Whether particle i sees the moonlet: under modified Lees-Edwards boundaries only LE1
+  // (copy 0) holds it; LE2 is the unperturbed ring that feeds LE1.
+  static bool feels(const ParticleStore& p, std::size_t i) { return !p.copies || p.le_copy[i] == 0; }
+  Vec3 acceleration(const ParticleStore& p, std::size_t i) const {
+    return feels(p, i) ? gravity(p.x[i]) : Vec3::Zero();
+  }
   double max_overlap_fraction() const { return max_overlap_; }
   std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
   long contacts() const { return contacts_; }

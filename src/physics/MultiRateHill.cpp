@@ -58,8 +58,8 @@ std::string MultiRateHill::name() const {
 
 void MultiRateHill::setup(Simulation& sim) { moonlet_ = sim.moonlet; }
 
-Vec3 MultiRateHill::moonlet_acceleration(const Vec3& x) const {
-  return moonlet_ ? moonlet_->gravity(x) : Vec3::Zero();
+Vec3 MultiRateHill::moonlet_acceleration(const ParticleStore& p, std::size_t i) const {
+  return moonlet_ ? moonlet_->acceleration(p, i) : Vec3::Zero();
 }
 
 bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) const {
@@ -67,13 +67,23 @@ bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) co
   const double D = delta_, W = omega_;
   const Vec3& x = p.x[i];
   const Vec3& v = p.v[i];
-  const Vec3 ai = moonlet_acceleration(x);
-  if (moonlet_) {
+  const Vec3 ai = moonlet_acceleration(p, i);
+  if (moonlet_ && Moonlet::feels(p, i)) {
     const double r = std::sqrt(x[0] * x[0] + x[1] * x[1] + (planar_ ? 0.0 : x[2] * x[2]));
     const double speed = v.norm();
     const double accel = gm_ / (moonlet_radius_ * moonlet_radius_) + 3 * W * W * std::abs(x[1]) + 2 * W * speed;
     if (r - moonlet_radius_ - p.radius[i] < (speed + accel * D) * D) return true;
     if (std::sqrt(gm_ / (r * r * r)) * D > max_tidal_phase_) return true;
+  }
+  const Decomposition& dom = sim.domain;
+  if (dom.fed_x && p.le_copy[i] == 1) {
+    // Modified Lees-Edwards boundaries: an LE2 particle near an x face is also an LE1 ghost
+    // across it, felt by LE1 particles it does not list (a one-way interaction). Its own
+    // partners cannot decide for it, so it takes contact steps while it can be there; its
+    // ghost then moves every step, and the LE1 particles near it are watched as usual.
+    const double speed = v.norm();
+    const double reach = sim.range + speed * D + (3 * W * W * std::abs(x[1]) + 2 * W * speed) * D * D;
+    if (x[0] - dom.lo[0] < reach || dom.hi[0] - x[0] < reach) return true;
   }
   const NeighborList& nl = sim.neighbors;
   const double ai_norm = ai.norm(), Wz2 = omega_z_ * omega_z_;
@@ -84,7 +94,7 @@ bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) co
     const double tau = u2 > 0 ? std::clamp(-d.dot(u) / u2, 0.0, D) : 0.0;
     const double closest = (d + tau * u).norm();
     const double bend = 3 * W * W * std::abs(d[1]) + Wz2 * std::abs(d[2]) + 2 * W * speed + ai_norm +
-                        moonlet_acceleration(p.x[j]).norm();
+                        moonlet_acceleration(p, j).norm();
     if (closest - R < bend * D * D + 4 * speed * dt_) return true;
   }
   return false;
@@ -104,7 +114,7 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   sim.halo.update_ghosts(p);
   for (std::size_t i = 0; i < p.nlocal; ++i) p.mode[i] = needs_contact_steps(sim, i) ? kContact : kFree;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.mode[i] == kFree) p.v[i] += (0.5 * delta_) * moonlet_acceleration(p.x[i]);
+    if (p.mode[i] == kFree) p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
   in_long_step_ = true;
   // Fast free particles are moved every step (exact map, cheap), so that the drift bound of the
   // rest allows about a long step between rebuilds: epicycle speed above skin / (4 Delta).
@@ -302,7 +312,7 @@ void MultiRateHill::final_integrate(Simulation& sim) {
     if (p.mode[i] == kWoken) {
       // Its state is the free one at this time, full step. It had delta/2 of the moonlet's
       // impulse at the long step's start; it is owed `since` of it.
-      v += (since - 0.5 * delta_) * moonlet_acceleration(p.x[i]);
+      v += (since - 0.5 * delta_) * moonlet_acceleration(p, i);
       p.mode[i] = kContact;
       continue;
     }
@@ -316,8 +326,8 @@ void MultiRateHill::final_integrate(Simulation& sim) {
   if (sim.step_count != last_step_) return;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (on_contact_steps(p.mode[i])) continue;
-    p.v[i] += (0.5 * delta_) * moonlet_acceleration(p.x[i]);
-    if (moonlet_) {
+    p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
+    if (moonlet_ && Moonlet::feels(p, i)) {
       const Vec3& x = p.x[i];
       const double r = std::sqrt(x[0] * x[0] + x[1] * x[1] + (planar_ ? 0.0 : x[2] * x[2]));
       missed += r < moonlet_radius_ + p.radius[i];

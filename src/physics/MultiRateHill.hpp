@@ -85,7 +85,7 @@ class MultiRateHill : public Module {
   void find_watched(const Simulation& sim);
   void make_lists(const ParticleStore& p);
   bool needs_contact_steps(const Simulation& sim, std::size_t i) const;
-  Vec3 moonlet_acceleration(const Vec3& x) const;
+  Vec3 moonlet_acceleration(const ParticleStore& p, std::size_t i) const;  // zero where there is no moonlet
   void publish(Simulation& sim) const;
 
   double dt_, omega_, omega_z_, long_step_, max_tidal_phase_;
