@@ -1,0 +1,153 @@
+// Modified Lees-Edwards boundaries (domain.modified_lees_edwards; thesis fig. 9.1): a
+// moonlet-free copy LE2 of the ring patch feeds the main box LE1 through its x faces.
+//  - LE2 is the unperturbed ring: particle for particle the same as a plain Lees-Edwards run
+//    without the moonlet from the same start (the independent calculation), while LE1 is not.
+//  - Without a moonlet LE1 is statistically LE2: the same population, no drift, the same
+//    density profile along x (the feed and drain faces included) and the same dispersion.
+#include <cmath>
+#include <numeric>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "TestScene.hpp"
+
+using namespace cassini;
+using namespace cassini::test;
+
+namespace {
+
+// The propeller patch (1 km^2, 1,500 particles) under the multi-rate integrator, fed.
+const std::vector<std::string> kMultiRate = {"species.0.t_c=4.0", "time.n_c=10", "time.integrator=\"multirate\"",
+                                             "time.long_step=20.0"};
+constexpr double kT0 = 40840.0;  // s, one orbit at 1.17e8 m from Saturn
+
+std::vector<std::string> with(std::vector<std::string> base, const std::vector<std::string>& more) {
+  base.insert(base.end(), more.begin(), more.end());
+  return base;
+}
+const std::vector<std::string> kFed = with(kMultiRate, {"domain.modified_lees_edwards=true"});
+
+// The patch without its moonlet.
+std::string ring_patch() {
+  std::string text = kPropellerPatch;
+  const std::string table = "[moonlet]\nmass = 1.27e10\nradius = 150.0\n", modules = "\"hill\", \"moonlet\"]";
+  const auto t = text.find(table), m = text.find(modules);
+  if (t == std::string::npos || m == std::string::npos) throw std::logic_error("kPropellerPatch changed: update ring_patch()");
+  text.erase(t, table.size());
+  return text.replace(text.find(modules), modules.size(), "\"hill\"]");
+}
+
+struct Sample {
+  long n1 = 0, n2 = 0;
+  std::vector<double> hist1, hist2;  // particles per x bin
+  double var1 = 0, var2 = 0;         // radial velocity variance
+};
+
+Sample sample(const Simulation& sim, int bins) {
+  const ParticleStore& p = sim.particles;
+  Sample s;
+  s.hist1.assign(bins, 0);
+  s.hist2.assign(bins, 0);
+  const double lo = sim.domain.lo[0], L = sim.domain.length[0];
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const int b = std::clamp(int((p.x[i][0] - lo) / L * bins), 0, bins - 1);
+    if (p.le_copy[i] == 0) { ++s.n1; s.hist1[b] += 1; s.var1 += p.v[i][1] * p.v[i][1]; }
+    else { ++s.n2; s.hist2[b] += 1; s.var2 += p.v[i][1] * p.v[i][1]; }
+  }
+  s.var1 /= std::max(1L, s.n1);
+  s.var2 /= std::max(1L, s.n2);
+  return s;
+}
+
+}  // namespace
+
+TEST(ModifiedLeesEdwards, LE2IsTheUnperturbedRingAndTheMoonletActsOnLE1Only) {
+  // A: the propeller patch fed by LE2. B: the same patch, no moonlet, plain boundaries. Their
+  // random starts are the same draw (LE2 is placed whole; ids of LE2 are N + k for B's k).
+  auto a = make_sim(kPropellerPatch, kFed);
+  auto b = make_sim(ring_patch(), kMultiRate);
+  a->setup();
+  b->setup();
+  const long N = b->total_particles();
+  // A quarter orbit, LE2 particles near the x faces cross; whole long steps (50 steps), where
+  // the multi-rate integrator has every particle at the present time.
+  const int steps = int(kT0 / 4 / a->dt) / 50 * 50;
+  for (int s = 0; s < steps; ++s) a->step();
+  for (int s = 0; s < steps; ++s) b->step();
+  const StateById sa = gather_state(*a), sb = gather_state(*b);
+  long le2 = 0, le2_apart = 0, le1 = 0, le1_apart = 0;
+  for (const auto& [id, st] : sa) {
+    const std::int64_t twin = id >= N && id < 2 * N ? id - N : id < N ? id : -1;
+    if (twin < 0 || !sb.count(twin)) continue;  // a clone made during the run
+    const auto& tb = sb.at(twin);
+    const double d = std::hypot(st[0] - tb[0], st[1] - tb[1]);
+    if (id >= N) { ++le2; le2_apart += d > 0.01; }
+    else { ++le1; le1_apart += d > 0.01; }
+  }
+  const long fed = a->halo.fed;
+  std::printf("LE2: %ld of %ld particles > 1 cm from the moonlet-free run; LE1: %ld of %ld; clones made: %ld\n", le2_apart,
+              le2, le1_apart, le1, fed);
+  EXPECT_EQ(le2, N) << "every LE2 particle stays in LE2";
+  EXPECT_GT(fed, 50) << "LE2 particles must cross x within the run";
+  // Collisions amplify the last-bit differences of the two runs' schedules (rebuild times,
+  // LE2 particles near the feed faces on contact steps): a few particles part, no more. The
+  // moonlet's pull (G M / r^2 ~ 3e-6 m/s^2 at 500 m) would move every one by metres.
+  EXPECT_LT(double(le2_apart), 0.05 * N) << le2_apart << " of " << N << " LE2 particles differ from the moonlet-free run by > 1 cm";
+  EXPECT_GT(double(le1_apart), 0.5 * le1) << "LE1 feels the moonlet: " << le1_apart << " of " << le1 << " differ";
+}
+
+TEST(ModifiedLeesEdwards, WithoutMoonletLE1IsStatisticallyLE2) {
+  auto sim = make_sim(ring_patch(), with(kFed, {"particles.count=2000"}));
+  sim->setup();
+  const int bins = 10;
+  const Sample first = sample(*sim, bins);
+  const long N = first.n2;
+  ASSERT_EQ(first.n1, N);
+  // One orbit; the first quarter is the start (the patch's edges at 0.12 m/s cross the box in
+  // 0.2 orbit), then a sample every 400 s.
+  const long every = std::lround(400.0 / sim->dt), steps = std::lround(kT0 / sim->dt), skip = steps / 4;
+  std::vector<double> t, n1;
+  std::vector<double> h1(bins, 0), h2(bins, 0);
+  double var1 = 0, var2 = 0;
+  for (long s = 1; s <= steps; ++s) {
+    sim->step();
+    if (s % every || s < skip) continue;
+    const Sample x = sample(*sim, bins);
+    ASSERT_EQ(x.n2, N) << "LE2 keeps every particle";
+    EXPECT_EQ(x.n1 - N, sim->halo.fed - sim->halo.drained) << "LE1 changes only by what was fed and drained";
+    t.push_back(sim->time);
+    n1.push_back(double(x.n1));
+    for (int k = 0; k < bins; ++k) { h1[k] += x.hist1[k]; h2[k] += x.hist2[k]; }
+    var1 += x.var1;
+    var2 += x.var2;
+  }
+  EXPECT_GT(sim->halo.fed, N / 2) << "most of the box should have been replaced through the feed";
+  std::set<std::int64_t> ids(sim->particles.id.begin(), sim->particles.id.begin() + sim->particles.nlocal);
+  EXPECT_EQ(ids.size(), sim->particles.nlocal) << "ids stay unique";
+  // Population: the mean within 2 % of LE2's and no drift (least-squares slope times the
+  // window below 2 % of N; the count's own scatter is ~sqrt of the ~200 in transit).
+  const double tm = std::accumulate(t.begin(), t.end(), 0.0) / t.size(), nm = std::accumulate(n1.begin(), n1.end(), 0.0) / n1.size();
+  double sxy = 0, sxx = 0;
+  for (std::size_t k = 0; k < t.size(); ++k) { sxy += (t[k] - tm) * (n1[k] - nm); sxx += (t[k] - tm) * (t[k] - tm); }
+  const double drift = sxy / sxx * (t.back() - t.front());
+  std::printf("LE1 population %.4f of LE2's, drift %.1f over the window; fed %ld; sigma_y LE1/LE2 %.4f; x bins LE1/LE2:",
+              nm / N, drift, long(sim->halo.fed), std::sqrt(var1 / var2));
+  for (int k = 0; k < bins; ++k) std::printf(" %.3f", h1[k] / h2[k]);
+  std::printf("\n");
+  EXPECT_NEAR(nm / N, 1.0, 0.02) << "LE1's mean population";
+  EXPECT_LT(std::abs(drift), 0.02 * N) << "LE1's population drifts by " << drift << " over the window";
+  // Density along x, the fed and drained faces included: each tenth of the box within 10 %
+  // (each bin sums ~200 particles x ~75 samples, correlated over a crossing time).
+  for (int k = 0; k < bins; ++k) EXPECT_NEAR(h1[k] / h2[k], 1.0, 0.10) << "x bin " << k;
+  EXPECT_NEAR(std::sqrt(var1 / var2), 1.0, 0.05) << "radial velocity dispersion LE1 / LE2";
+}
+
+TEST(ModifiedLeesEdwards, NeedsShearedBoundaries) {
+  try {
+    config_from(kPair, {"domain.modified_lees_edwards=true"});
+    FAIL() << "accepted without a lees_edwards y boundary";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("domain.modified_lees_edwards"), std::string::npos) << e.what();
+  }
+}
