@@ -337,6 +337,15 @@ void Simulation::run(RunOutput* out) {
   }
   output_ = nullptr;
   if (global_guard_pending()) check_guards();
+  if (domain.fed_x) {  // the modified boundaries' bookkeeping, for summary.json
+    long long local[4] = {halo.fed, halo.drained, halo.stillborn, 0}, g[4];
+    for (std::size_t i = 0; i < particles.nlocal; ++i) local[3] += particles.le_copy[i] == 0;
+    MPI_Allreduce(local, g, 4, MPI_LONG_LONG, MPI_SUM, domain.comm);
+    std::ostringstream os;
+    os << "{\"fed_into_le1\": " << g[0] << ", \"drained_from_le1\": " << g[1] << ", \"clones_not_inserted\": " << g[2]
+       << ", \"le1_particles\": " << g[3] << ", \"le2_particles\": " << total_particles() - g[3] << "}";
+    set_result("modified_lees_edwards", os.str());
+  }
   // A run that a module ended (a clog) gets a last frame with its final state and results.
   if (out && snap_every && finished && step_count % snap_every != 0) out->snapshot(*this);
 }

@@ -1,0 +1,116 @@
+"""Propeller checks against Hill-frame theory (issue 17, item 4), from the snapshots of runs of
+cases/propeller:
+
+   /usr/bin/python3 scripts/propeller_theory.py gap  RUN_SMALL RUN_LARGE [--scale 2] [--window 4084]
+   /usr/bin/python3 scripts/propeller_theory.py wake RUN [--from T] [--to T]
+
+gap:  the radial offset of the gaps downstream. RUN_LARGE is RUN_SMALL with every length times
+      SCALE (moonlet mass x SCALE^3 and radius x SCALE, so r_H x SCALE; box x SCALE, particle count
+      x SCALE^2 at the same optical depth). The surface density against |y| is taken downstream,
+      x sign(y) in [1, 5] km x SCALE, over the last WINDOW seconds; the gap's offset is the centroid
+      of the density deficit max(0, 1 - Sigma/Sigma_0) over |y| < 0.45 Ly (Sigma_0: the box's mean),
+      and its deepest point. Theory: both scale with r_H, so the ratios are SCALE.
+wake: the moonlet wake's azimuthal wavelength. A particle passing the moonlet at radial offset y
+      gets a radial kick and then moves on its epicycle (period 2 pi / Omega0) while the shear
+      carries it downstream at 1.5 Omega0 |y|: its radial velocity repeats every 3 pi |y| in x,
+      and the pattern is stationary in the moonlet's frame. Mean v_y of LE1 (or all) particles in
+      bands of |y|, binned in downstream distance, is fitted with A cos(2 pi s / lambda + phi) + c.
+"""
+import argparse, glob, math
+
+import h5py
+import numpy as np
+
+G, MS, R0 = 6.674e-11, 5.68e26, 1.17e8
+OMEGA0 = math.sqrt(G * MS / R0**3)
+
+ap = argparse.ArgumentParser()
+ap.add_argument("mode", choices=["gap", "wake"])
+ap.add_argument("runs", nargs="+")
+ap.add_argument("--scale", type=float, default=2.0)
+ap.add_argument("--window", type=float, default=4084.0)
+ap.add_argument("--from", dest="t_from", type=float, default=0.0)
+ap.add_argument("--to", dest="t_to", type=float, default=1e30)
+a = ap.parse_args()
+
+
+def frames(run, t0, t1):
+    for s in sorted(glob.glob(run + "/snap_*.h5md")):
+        f = h5py.File(s)
+        t = float(f["parameters/time_offset_dt"][0])
+        if t0 <= t <= t1:
+            g = f["particles/grains"]
+            x, v = g["position/value"][0], g["velocity/value"][0]
+            keep = g["le_copy/value"][0].ravel() == 0 if "le_copy" in g else np.ones(len(x), bool)
+            yield t, x[keep], v[keep], f
+
+
+def gap_offset(run, scale):
+    times = [float(h5py.File(s)["parameters/time_offset_dt"][0]) for s in glob.glob(run + "/snap_*.h5md")]
+    t1 = max(times)
+    acc, ref, n = None, 0.0, 0
+    for t, x, v, f in frames(run, t1 - a.window, t1):
+        box = f["particles/grains/box/edges/value"][0]
+        Lx, Ly = float(box[0][0]), float(box[1][1])
+        edges = np.linspace(0, 0.45 * Ly, 46)
+        s = x[:, 0] * np.sign(x[:, 1])
+        sel = (s >= 1000 * scale) & (s <= 5000 * scale)
+        h, _ = np.histogram(np.abs(x[sel, 1]), bins=edges)
+        acc = h if acc is None else acc + h
+        ref += len(x) / (Lx * Ly)  # the box's mean surface number density
+        n += 1
+    dens = acc / n / (np.diff(edges) * 2 * 4000 * scale)
+    ref /= n
+    y = 0.5 * (edges[1:] + edges[:-1])
+    deficit = np.clip(1 - dens / ref, 0, None)
+    centroid = float(np.sum(y * deficit) / np.sum(deficit))
+    ymin = float(y[np.argmin(dens)])
+    return centroid, ymin, y, dens, ref, n
+
+
+if a.mode == "gap":
+    small, large = a.runs
+    c1, m1, y1, d1, r1, n1 = gap_offset(small, 1.0)
+    c2, m2, y2, d2, r2, n2 = gap_offset(large, a.scale)
+    rh = R0 * (1.27e10 / (3 * MS)) ** (1 / 3)
+    print(f"frames: {n1} and {n2}")
+    print(f"gap centroid of the deficit: {c1:.0f} m ({c1 / rh:.2f} r_H) and {c2:.0f} m ({c2 / (a.scale * rh):.2f} r_H'):"
+          f" ratio {c2 / c1:.3f} (theory {a.scale:g})")
+    print(f"deepest point: {m1:.0f} m and {m2:.0f} m: ratio {m2 / m1:.3f}")
+    print("|y|/r_H   Sigma/Sigma_ref (small)   (large, at the same |y|/r_H')")
+    for k in range(0, len(y1), 3):
+        j = int(np.argmin(np.abs(y2 / a.scale - y1[k])))
+        print(f"{y1[k] / rh:6.2f}   {d1[k] / r1:6.3f}   {d2[j] / r2:6.3f}")
+else:
+    run = a.runs[0]
+    bands = [(400, 450), (500, 550), (600, 650), (700, 750), (800, 850)]
+    sbins = np.arange(300.0, 9000.0, 150.0)
+    sums = {b: (np.zeros(len(sbins) - 1), np.zeros(len(sbins) - 1)) for b in bands}
+    n = 0
+    for t, x, v, f in frames(run, a.t_from, a.t_to):
+        n += 1
+        s = x[:, 0] * np.sign(x[:, 1])
+        ay = np.abs(x[:, 1])
+        vy = v[:, 1] * np.sign(x[:, 1])  # mirror: the pattern at -y is the one at +y turned by pi
+        for b in bands:
+            sel = (ay >= b[0]) & (ay < b[1])
+            h, _ = np.histogram(s[sel], bins=sbins, weights=vy[sel])
+            c, _ = np.histogram(s[sel], bins=sbins)
+            sums[b][0][:] += h
+            sums[b][1][:] += c
+    centres = 0.5 * (sbins[1:] + sbins[:-1])
+    print(f"{n} frames; band |y| (m): fitted wavelength (m), 3 pi <|y|> (m), ratio, amplitude (mm/s)")
+    for b in bands:
+        ok = sums[b][1] > 0
+        s, vy = centres[ok], sums[b][0][ok] / sums[b][1][ok]
+        best = None
+        for lam in np.linspace(2000, 12000, 2001):
+            k = 2 * math.pi / lam
+            A = np.column_stack([np.cos(k * s), np.sin(k * s), np.ones_like(s)])
+            coef, res, *_ = np.linalg.lstsq(A, vy, rcond=None)
+            r = float(np.sum((A @ coef - vy) ** 2))
+            if best is None or r < best[0]:
+                best = (r, lam, math.hypot(coef[0], coef[1]))
+        yc = 0.5 * (b[0] + b[1])
+        theory = 3 * math.pi * yc
+        print(f"{b[0]}-{b[1]}: {best[1]:.0f}  {theory:.0f}  {best[1] / theory:.3f}  {best[2] * 1e3:.2f}")
