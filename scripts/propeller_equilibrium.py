@@ -35,6 +35,7 @@ ap.add_argument("--orbits", type=int, default=6)
 ap.add_argument("--plain-e", type=float, nargs="*", default=[0.5, 0.9], help="plain Lees-Edwards runs beside (seed 1)")
 ap.add_argument("--bridges-vc", type=float, nargs="*", default=[], help="Bridges-law runs at these v_c (m/s)")
 ap.add_argument("--lanes", type=int, default=2)
+ap.add_argument("--skip", nargs="*", default=[], help="run names not to start (e.g. running elsewhere)")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-equilibrium"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
@@ -58,7 +59,7 @@ def runs():
 
 def simulate(r):
     d = os.path.join(a.out, r["name"])
-    if os.path.exists(os.path.join(d, "summary.json")):
+    if os.path.exists(os.path.join(d, "summary.json")) or r["name"] in a.skip:
         return 0.0
     sets = [f"seed={r['seed']}", f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 20:.4f}",
             "output.dump_every=0", "output.progress_every=60", f"domain.modified_lees_edwards={'true' if r['boundary'] == 'modified' else 'false'}"]
