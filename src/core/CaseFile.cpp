@@ -275,6 +275,20 @@ std::vector<std::string> CaseFile::strings(const std::string& key,
   return out;
 }
 
+std::vector<double> CaseFile::numbers(const std::string& key) {
+  mark(canonical(split_key(key)));
+  const auto* n = find(key);
+  const auto* a = n ? n->as_array() : nullptr;
+  if (!a) fail(key, "an array of numbers");
+  std::vector<double> out;
+  for (auto&& e : *a) {
+    const auto x = e.value<double>();
+    if (!x || !std::isfinite(*x)) fail(key, "an array of finite numbers");
+    out.push_back(*x);
+  }
+  return out;
+}
+
 std::vector<std::array<double, 2>> CaseFile::points(const std::string& key) {
   mark(canonical(split_key(key)));
   const auto* n = find(key);

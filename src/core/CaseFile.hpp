@@ -34,6 +34,7 @@ class CaseFile {
   Vec3 vec3(const std::string& key, std::optional<Vec3> fallback = std::nullopt);
   std::vector<std::string> strings(const std::string& key,
                                    std::optional<std::vector<std::string>> fallback = std::nullopt);
+  std::vector<double> numbers(const std::string& key);  // an array of finite numbers
   // An array of [x, y] pairs (a polyline).
   std::vector<std::array<double, 2>> points(const std::string& key);
   std::size_t array_size(const std::string& key);  // number of entries of an array of tables

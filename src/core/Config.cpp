@@ -106,12 +106,45 @@ Config read_config(CaseFile& f) {
     Species s;
     s.name = f.string(p + "name", "species" + std::to_string(i));
     s.density = positive(f, p + "density");
-    if (f.has(p + "radius")) {
+    const std::string sizes = f.string(p + "size_distribution", f.has(p + "radii") ? "list" : "uniform");
+    if (sizes == "list") {
+      s.sizes.kind = SizeDistribution::List;
+      s.sizes.radii = f.numbers(p + "radii");
+      if (s.sizes.radii.empty()) f.fail(p + "radii", "a list of radii (m)");
+      for (double a : s.sizes.radii)
+        if (!(a > 0)) f.fail(p + "radii", "positive radii");
+      s.sizes.weights = f.has(p + "radius_weights") ? f.numbers(p + "radius_weights")
+                                                    : std::vector<double>(s.sizes.radii.size(), 1.0);
+      if (s.sizes.weights.size() != s.sizes.radii.size())
+        f.fail(p + "radius_weights", "one number fraction per entry of radii (" + std::to_string(s.sizes.radii.size()) + ")");
+      double total = 0;
+      for (double w : s.sizes.weights) {
+        if (!(w >= 0)) f.fail(p + "radius_weights", "non-negative number fractions");
+        total += w;
+      }
+      if (!(total > 0)) f.fail(p + "radius_weights", "fractions with a positive sum");
+      std::vector<std::size_t> order(s.sizes.radii.size());
+      for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+      std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return s.sizes.radii[x] < s.sizes.radii[y]; });
+      std::vector<double> r, w;
+      for (std::size_t k : order) { r.push_back(s.sizes.radii[k]); w.push_back(s.sizes.weights[k] / total); }
+      s.sizes.radii = r;
+      s.sizes.weights = w;
+      s.radius_min = r.front();
+      s.radius_max = r.back();
+    } else if (f.has(p + "radius")) {
       s.radius_min = s.radius_max = positive(f, p + "radius");
     } else {
       s.radius_min = positive(f, p + "radius_min");
       s.radius_max = positive(f, p + "radius_max");
       if (s.radius_max < s.radius_min) f.fail(p + "radius_max", "a value >= radius_min");
+    }
+    if (sizes == "power_law") {
+      s.sizes.kind = SizeDistribution::PowerLaw;
+      s.sizes.q = f.number(p + "size_exponent", 3.0);
+      if (!std::isfinite(s.sizes.q)) f.fail(p + "size_exponent", "a finite exponent q of dN/da ~ a^-q");
+    } else if (sizes != "uniform" && sizes != "list") {
+      f.fail(p + "size_distribution", "\"uniform\", \"power_law\" (dN/da ~ a^-size_exponent) or \"list\" (radii, radius_weights)");
     }
     const std::string model = f.string(p + "model", "linear");
     if (model == "hertz") {

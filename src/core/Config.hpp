@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/CaseFile.hpp"
+#include "core/SizeDistribution.hpp"
 #include "core/Vec3.hpp"
 #include "physics/ChannelConfig.hpp"
 
@@ -19,7 +20,8 @@ enum class Boundary { Periodic, Wall, Open, LeesEdwards };
 struct Species {
   std::string name;
   double density = 0;
-  double radius_min = 0, radius_max = 0;  // equal for monodisperse; uniform in between otherwise
+  double radius_min = 0, radius_max = 0;  // equal for monodisperse; distributed by `sizes` otherwise
+  SizeDistribution sizes;
   double t_c = 0;                         // contact duration
   double e = 1;                           // normal restitution (restitution = "constant")
   // restitution = "bridges": each impact's e from its normal speed u, the law of frosty ice

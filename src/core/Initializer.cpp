@@ -1,6 +1,8 @@
 #include "core/Initializer.hpp"
 
+#include <algorithm>
 #include <cerrno>
+#include <functional>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -43,10 +45,7 @@ void centre_bounds(const Config& cfg, Vec3& lo, Vec3& hi) {
   if (cfg.planar) lo[2] = hi[2] = 0.5 * (cfg.lo[2] + cfg.hi[2]);
 }
 
-double mean_power(const Species& s, int k) {  // <a^k> for a uniform radius distribution
-  if (s.radius_max == s.radius_min) return std::pow(s.radius_min, k);
-  return (std::pow(s.radius_max, k + 1) - std::pow(s.radius_min, k + 1)) / ((k + 1) * (s.radius_max - s.radius_min));
-}
+double mean_power(const Species& s, int k) { return s.sizes.mean_power(s.radius_min, s.radius_max, k); }
 
 long resolve_count(const Config& cfg) {
   if (cfg.count > 0) return cfg.count;
@@ -58,7 +57,7 @@ long resolve_count(const Config& cfg) {
 }
 
 double draw_radius(const Species& s, Random& rng) {
-  return s.radius_min == s.radius_max ? s.radius_min : rng.uniform(s.radius_min, s.radius_max);
+  return s.radius_min == s.radius_max ? s.radius_min : s.sizes.quantile(s.radius_min, s.radius_max, rng.uniform(0.0, 1.0));
 }
 
 // Random sequential addition with a cell grid; refuses packings it cannot reach.
@@ -92,8 +91,16 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
   auto key_of = [&](int cx, int cy, int cz) { return (long(cz) * nc[1] + cy) * nc[0] + cx; };
   std::vector<Candidate> out;
   out.reserve(n);
+  // A wide distribution (power law, list) is drawn first and placed largest first, as random
+  // sequential addition of polydisperse discs is done: a large particle drawn late would find no
+  // hole among the small ones. The uniform law keeps its interleaved draws (earlier runs' starts).
+  std::vector<double> drawn;
+  if (s.sizes.kind != SizeDistribution::Uniform) {
+    for (long k = 0; k < n; ++k) drawn.push_back(draw_radius(s, rng));
+    std::sort(drawn.begin(), drawn.end(), std::greater<>());
+  }
   for (long k = 0; k < n; ++k) {
-    const double a = draw_radius(s, rng);
+    const double a = drawn.empty() ? draw_radius(s, rng) : drawn[k];
     bool placed = false;
     for (int attempt = 0; attempt < 10000 && !placed; ++attempt) {
       Vec3 x;

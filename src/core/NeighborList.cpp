@@ -49,7 +49,28 @@ std::vector<std::size_t> NeighborList::spatial_order(const ParticleStore& p, con
   return order;
 }
 
+namespace {
+// Sum order = partner id order (insertion sort: lists are short).
+void sort_by_id(const ParticleStore& p, std::uint32_t* b, std::size_t len) {
+  for (std::size_t a = 1; a < len; ++a) {
+    const std::uint32_t key = b[a];
+    std::size_t q = a;
+    while (q > 0 && p.id[b[q - 1]] > p.id[key]) {
+      b[q] = b[q - 1];
+      --q;
+    }
+    b[q] = key;
+  }
+}
+}  // namespace
+
 void NeighborList::build(const ParticleStore& p, const Decomposition& dom, double range, double skin) {
+  double amin = 1e300, amax = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    amin = std::min(amin, p.radius[i]);
+    amax = std::max(amax, p.radius[i]);
+  }
+  if (amax > 2 * amin) return build_by_size_class(p, dom, range, skin, amin, amax);
   const Grid g = make_grid(dom, range, p.size());
   const std::size_t n = p.size(), ncell = std::size_t(g.n[0]) * g.n[1] * g.n[2];
   // Under modified Lees-Edwards boundaries each copy of the box has its own cells: particles of
@@ -69,6 +90,7 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   start.resize(p.nlocal + 1);
   partner.clear();
   partner.reserve(p.nlocal * 4);
+  candidates = 0;
   const Vec3* X = p.x.data();
   const double* A = p.radius.data();
   const std::uint32_t* items = cell_items_.data();
@@ -97,6 +119,7 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
         const int x0 = std::max(cx - 1, 0), x1 = std::min(cx + 1, g.n[0] - 1);
         const std::size_t row = block + (std::size_t(z) * g.n[1] + y) * g.n[0];
         // cells x0..x1 of one row are contiguous in cell_items_
+        candidates += cstart[row + x1 + 1] - cstart[row + x0];
         for (std::uint32_t k = cstart[row + x0]; k < cstart[row + x1 + 1]; ++k) {
           const Eigen::Vector4d& c = C[k];
           const double cut = ri + c[3];
@@ -105,18 +128,80 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
         }
       }
     }
-    // Sum order = partner id order (insertion sort: lists are short).
-    auto* b = partner.data() + start[i];
-    const std::size_t len = partner.size() - start[i];
-    for (std::size_t a = 1; a < len; ++a) {
-      const std::uint32_t key = b[a];
-      std::size_t q = a;
-      while (q > 0 && p.id[b[q - 1]] > p.id[key]) {
-        b[q] = b[q - 1];
-        --q;
-      }
-      b[q] = key;
+    sort_by_id(p, partner.data() + start[i], partner.size() - start[i]);
+  }
+  start[p.nlocal] = static_cast<std::uint32_t>(partner.size());
+}
+
+void NeighborList::build_by_size_class(const ParticleStore& p, const Decomposition& dom, double range, double skin,
+                                       double amin, double amax) {
+  // Class c holds radii in [amin 2^c, amin 2^(c+1)); its pairs reach at most a_i + 2^(c+1) amin + skin.
+  const int nclass = std::max(1, static_cast<int>(std::ceil(std::log2(amax / amin) + 1e-12)));
+  auto class_of = [&](double a) { return std::clamp(static_cast<int>(std::log2(a / amin)), 0, nclass - 1); };
+  const double reach_extra = range - 2 * amax;  // skin (and lubrication reach) beyond contact
+  const std::size_t n = p.size();
+  const std::size_t blocks = p.copies ? 2 : 1;
+  std::vector<Grid> grids(nclass);
+  std::vector<double> top(nclass);  // largest radius a class may hold
+  std::vector<std::size_t> offset(nclass * blocks + 1, 0);
+  for (int c = 0; c < nclass; ++c) {
+    top[c] = std::min(amax, amin * std::ldexp(1.0, c + 1));
+    grids[c] = make_grid(dom, std::max(2 * top[c] + reach_extra, 1e-300), n);
+  }
+  // Each (copy, class) block of cells after the previous one.
+  std::size_t total = 0;
+  for (std::size_t b = 0; b < blocks; ++b)
+    for (int c = 0; c < nclass; ++c) {
+      offset[b * nclass + c] = total;
+      total += std::size_t(grids[c].n[0]) * grids[c].n[1] * grids[c].n[2];
     }
+  offset[blocks * nclass] = total;
+  cell_of_.resize(n);
+  cell_start_.assign(total + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int c = class_of(p.radius[i]);
+    const std::size_t b = p.copies ? p.le_copy[i] : 0;
+    cell_of_[i] = static_cast<std::uint32_t>(offset[b * nclass + c] + grids[c].cell(p.x[i]));
+    ++cell_start_[cell_of_[i] + 1];
+  }
+  for (std::size_t c = 0; c < total; ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_items_.resize(n);
+  {
+    std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+  }
+  start.resize(p.nlocal + 1);
+  partner.clear();
+  partner.reserve(p.nlocal * 4);
+  candidates = 0;
+  const int dims = dom.dims;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    start[i] = static_cast<std::uint32_t>(partner.size());
+    const Vec3 xi = p.x[i];
+    const double ri = p.radius[i] + skin;
+    const std::size_t b = p.copies ? p.le_copy[i] : 0;
+    for (int c = 0; c < nclass; ++c) {
+      const Grid& g = grids[c];
+      const double reach = ri + top[c];
+      int lo[3], hi[3];
+      for (int d = 0; d < 3; ++d) {
+        if (d >= dims) { lo[d] = hi[d] = 0; continue; }
+        lo[d] = std::max(0, static_cast<int>(std::floor((xi[d] - reach - g.lo[d]) * g.inv_size[d])));
+        hi[d] = std::min(g.n[d] - 1, static_cast<int>(std::floor((xi[d] + reach - g.lo[d]) * g.inv_size[d])));
+      }
+      const std::size_t base = offset[b * nclass + c];
+      for (int z = lo[2]; z <= hi[2]; ++z)
+        for (int y = lo[1]; y <= hi[1]; ++y) {
+          const std::size_t row = base + (std::size_t(z) * g.n[1] + y) * g.n[0];
+          for (std::uint32_t k = cell_start_[row + lo[0]]; k < cell_start_[row + hi[0] + 1]; ++k) {
+            const std::uint32_t j = cell_items_[k];
+            const double cut = ri + p.radius[j];
+            ++candidates;
+            if ((xi - p.x[j]).squaredNorm() < cut * cut && j != i) partner.push_back(j);
+          }
+        }
+    }
+    sort_by_id(p, partner.data() + start[i], partner.size() - start[i]);
   }
   start[p.nlocal] = static_cast<std::uint32_t>(partner.size());
 }

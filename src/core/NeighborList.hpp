@@ -22,6 +22,7 @@ class NeighborList {
   static std::vector<std::size_t> spatial_order(const ParticleStore& p, const Decomposition& dom, double range);
 
   std::size_t size() const { return partner.size(); }
+  long long candidates = 0;  // pairs distance-tested at the last build (the search's cost)
 
  private:
   struct Grid {
@@ -33,6 +34,12 @@ class NeighborList {
   // Cells of at least `range`, and never many more cells than particles: a few particles
   // in a huge box must not allocate a huge grid.
   static Grid make_grid(const Decomposition& dom, double range, std::size_t particles);
+  // Radii spread over more than a factor 2 (a size distribution): one grid per size class
+  // (radii within a factor 2), each with cells as wide as its own largest pair reach, searched
+  // over the cells a particle's reach to that class covers (the "multi" binning of LAMMPS).
+  // A cell grid sized for the largest pair would test ~(a_max / a)^2 times more candidates.
+  void build_by_size_class(const ParticleStore& p, const Decomposition& dom, double range, double skin, double amin,
+                           double amax);
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
   std::vector<Eigen::Vector4d> sorted_;
 };

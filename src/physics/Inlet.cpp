@@ -76,7 +76,8 @@ void Inlet::top_up(Simulation& sim) {
   int attempts = 0;
   full_ = present + 0.5 * volume(sp.radius_min) > target;
   while (attempts < ch.inlet_attempts) {
-    const double a = sp.radius_min == sp.radius_max ? sp.radius_min : rng.uniform(sp.radius_min, sp.radius_max);
+    const double a = sp.radius_min == sp.radius_max ? sp.radius_min
+                                                    : sp.sizes.quantile(sp.radius_min, sp.radius_max, rng.uniform(0.0, 1.0));
     if (present + 0.5 * volume(a) > target) break;  // closest to the target
     ++attempts;
     const double x = rng.uniform(x0, x1);
