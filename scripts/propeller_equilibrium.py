@@ -36,6 +36,7 @@ ap.add_argument("--plain-e", type=float, nargs="*", default=[0.5, 0.9], help="pl
 ap.add_argument("--bridges-vc", type=float, nargs="*", default=[], help="Bridges-law runs at these v_c (m/s)")
 ap.add_argument("--lanes", type=int, default=2)
 ap.add_argument("--skip", nargs="*", default=[], help="run names not to start (e.g. running elsewhere)")
+ap.add_argument("--only", nargs="*", default=None, help="just these runs, in this order (names as the run directories)")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-equilibrium"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
@@ -111,6 +112,12 @@ def analyse(r):
 
 
 todo = runs()
+if a.only is not None:
+    by_name = {r["name"]: r for r in todo}
+    missing = [n for n in a.only if n not in by_name]
+    if missing:
+        sys.exit(f"--only: no such run in this set: {missing} (have {sorted(by_name)})")
+    todo = [by_name[n] for n in a.only]
 if a.mode == "run":
     t0 = time.time()
     with ThreadPoolExecutor(a.lanes) as pool:

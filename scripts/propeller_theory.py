@@ -14,7 +14,10 @@ wake: the moonlet wake's azimuthal wavelength. A particle passing the moonlet at
       gets a radial kick and then moves on its epicycle (period 2 pi / Omega0) while the shear
       carries it downstream at 1.5 Omega0 |y|: its radial velocity repeats every 3 pi |y| in x,
       and the pattern is stationary in the moonlet's frame. Mean v_y of LE1 (or all) particles in
-      bands of |y|, binned in downstream distance, is fitted with A cos(2 pi s / lambda + phi) + c.
+      bands of |y|, binned in downstream distance s (from 2 |y|, past the encounter, to the front
+      of material that has passed since the start), is fitted with A cos(2 pi s / lambda + phi) + c.
+      The linear kinematics holds for test particles (a run without "contact"): in a collisional
+      ring the wake is damped and its phase drifts (docs/propeller.md).
 """
 import argparse, glob, math
 
@@ -83,12 +86,15 @@ if a.mode == "gap":
         print(f"{y1[k] / rh:6.2f}   {d1[k] / r1:6.3f}   {d2[j] / r2:6.3f}")
 else:
     run = a.runs[0]
-    bands = [(400, 450), (500, 550), (600, 650), (700, 750), (800, 850)]
-    sbins = np.arange(300.0, 9000.0, 150.0)
-    sums = {b: (np.zeros(len(sbins) - 1), np.zeros(len(sbins) - 1)) for b in bands}
-    n = 0
+    bands = [(b, b + 100) for b in range(800, 1600, 100)]
+    sbins, sums = None, None
+    n, t_first = 0, None
     for t, x, v, f in frames(run, a.t_from, a.t_to):
+        if sbins is None:  # downstream distance up to half the box (then the periodic image)
+            sbins = np.arange(0.0, 0.5 * float(f["particles/grains/box/edges/value"][0][0][0]), 150.0)
+            sums = {b: (np.zeros(len(sbins) - 1), np.zeros(len(sbins) - 1)) for b in bands}
         n += 1
+        t_first = t if t_first is None else min(t_first, t)
         s = x[:, 0] * np.sign(x[:, 1])
         ay = np.abs(x[:, 1])
         vy = v[:, 1] * np.sign(x[:, 1])  # mirror: the pattern at -y is the one at +y turned by pi
@@ -99,18 +105,21 @@ else:
             sums[b][0][:] += h
             sums[b][1][:] += c
     centres = 0.5 * (sbins[1:] + sbins[:-1])
-    print(f"{n} frames; band |y| (m): fitted wavelength (m), 3 pi <|y|> (m), ratio, amplitude (mm/s)")
+    print(f"{n} frames; band |y| (m): fitted wavelength (m), 3 pi <|y|> (m), ratio, amplitude (mm/s), s range (m)")
     for b in bands:
-        ok = sums[b][1] > 0
+        yc = 0.5 * (b[0] + b[1])
+        # Downstream of the encounter (s > 2 |y|) and behind the front of material that has passed
+        # the moonlet since the start (s < 1.5 Omega0 |y| t).
+        s_max = 0.95 * 1.5 * OMEGA0 * b[0] * t_first
+        ok = (sums[b][1] > 0) & (centres > 2 * yc) & (centres < s_max)
         s, vy = centres[ok], sums[b][0][ok] / sums[b][1][ok]
         best = None
-        for lam in np.linspace(2000, 12000, 2001):
+        for lam in np.linspace(2000, 20000, 3601):
             k = 2 * math.pi / lam
             A = np.column_stack([np.cos(k * s), np.sin(k * s), np.ones_like(s)])
             coef, res, *_ = np.linalg.lstsq(A, vy, rcond=None)
             r = float(np.sum((A @ coef - vy) ** 2))
             if best is None or r < best[0]:
                 best = (r, lam, math.hypot(coef[0], coef[1]))
-        yc = 0.5 * (b[0] + b[1])
         theory = 3 * math.pi * yc
-        print(f"{b[0]}-{b[1]}: {best[1]:.0f}  {theory:.0f}  {best[1] / theory:.3f}  {best[2] * 1e3:.2f}")
+        print(f"{b[0]}-{b[1]}: {best[1]:.0f}  {theory:.0f}  {best[1] / theory:.3f}  {best[2] * 1e3:.2f}  {s.min():.0f}-{s.max():.0f}")
