@@ -139,7 +139,7 @@ void RunOutput::observe(Simulation& sim) {
   const double ke = sim.kinetic_energy(), pe = sim.elastic_energy();
   const Vec3 mom = sim.momentum();
   const long n = sim.total_particles();
-  double local[11] = {0};
+  double local[12] = {0};
   for (std::size_t i = 0; i < p.nlocal; ++i) local[0] += p.mass[i];
   double mass = 0;
   MPI_Allreduce(&local[0], &mass, 1, MPI_DOUBLE, MPI_SUM, comm_);
@@ -152,13 +152,19 @@ void RunOutput::observe(Simulation& sim) {
   local[5] = sim.contact ? double(sim.contact->take_collisions()) : 0.0;
   local[6] = sim.contact ? sim.contact->overlap_sum() : 0.0;
   local[7] = sim.moonlet ? double(sim.moonlet->contacts()) : 0.0;
+  // A 3D ring patch's thickness: the mass-weighted rms height above the mid-plane (the tide's
+  // equilibrium plane), accumulated in local[11].
+  const bool thick = !sim.cfg.planar && sim.cfg.has_module("hill");
+  const double mid = 0.5 * (sim.cfg.lo[2] + sim.cfg.hi[2]);
+  if (thick)
+    for (std::size_t i = 0; i < p.nlocal; ++i) local[11] += p.mass[i] * (p.x[i][2] - mid) * (p.x[i][2] - mid);
   if (p.copies) {  // modified Lees-Edwards boundaries: LE1's population and the feed's counts
     for (std::size_t i = 0; i < p.nlocal; ++i) local[8] += p.le_copy[i] == 0;
     local[9] = double(sim.halo.fed);
     local[10] = double(sim.halo.drained);
   }
-  double sums[11];
-  MPI_Allreduce(local, sums, 11, MPI_DOUBLE, MPI_SUM, comm_);
+  double sums[12];
+  MPI_Allreduce(local, sums, 12, MPI_DOUBLE, MPI_SUM, comm_);
   double overlap = sim.contact ? sim.contact->max_overlap_fraction() : 0.0, max_overlap = 0;
   MPI_Allreduce(&overlap, &max_overlap, 1, MPI_DOUBLE, MPI_MAX, comm_);
   if (rank_ != 0) return;
@@ -182,6 +188,7 @@ void RunOutput::observe(Simulation& sim) {
                   {"mean_overlap_over_radius", {contacts > 0 ? sums[6] / contacts : 0.0}},
                   {"max_overlap_over_radius", {max_overlap}},
                   {"moonlet_contacts", {sums[7]}}};
+  if (thick) row.push_back({"ring_thickness", {std::sqrt(sums[11] / mass)}});
   if (p.copies)
     row.insert(row.end(), {{"le1_particles", {sums[8]}}, {"fed_into_le1", {sums[9]}}, {"drained_from_le1", {sums[10]}}});
   h5obs_->append(sim.step_count, sim.time, row);
