@@ -9,7 +9,7 @@ criteria as time series, and their steady-state values against e with error bars
 Each run is one rank (lanes of one-rank runs suit a shared 2-core machine), snapshots every
 T0/20; every half orbit the criteria are taken over that half orbit's frames (10 frames;
 the thesis used 10 frames over 1,000 s) with scripts/propeller_analysis.py (LE1 only). Beside
-them: the radial velocity dispersion far from the moonlet (LE1, |y| > 3 r_H) and in the feed
+them: the radial velocity dispersion far from the moonlet (LE1 upstream, |y| > 3 r_H) and in the feed
 LE2 (the unperturbed ring). The steady state is the last two orbits (4 windows); a crossing
 value of e comes with a bootstrap over seeds and windows. Writes series.csv, steady.csv,
 summary.json and figures into DIR (default runs/propeller-equilibrium).
@@ -80,13 +80,16 @@ def simulate(r):
 
 
 def dispersions(snap):
-    """Radial velocity dispersion of LE1 far from the moonlet (|y| > 3 r_H) and of LE2."""
+    """Radial velocity dispersion of LE1 upstream of the moonlet, away from it (|y| > 3 r_H,
+    1-9 km before it: material that has not met it; downstream its wakes' coherent motion would
+    count), and of LE2 (the unperturbed ring)."""
     f = h5py.File(snap)
     g = f["particles/grains"]
     x = g["position/value"][0]
     vy = g["velocity/value"][0][:, 1]
     copy = g["le_copy/value"][0].ravel() if "le_copy" in g else np.zeros(len(vy), int)
-    far = (copy == 0) & (np.abs(x[:, 1]) > 3 * R_HILL)
+    upstream = -x[:, 0] * np.sign(x[:, 1])
+    far = (copy == 0) & (np.abs(x[:, 1]) > 3 * R_HILL) & (upstream > 1000)
     le2 = copy == 1
     return (float(np.std(vy[far])), float(np.std(vy[le2])) if le2.any() else float("nan"),
             int((copy == 0).sum()))
@@ -226,7 +229,7 @@ for row_set in sorted({(r["boundary"], r["law"], r["e"]) for r in series}, key=s
         ax[2].plot([r["orbit"] for r in rr], [r["dv_y_far"] * 1e3 for r in rr], style, color=color, alpha=0.8)
 ax[0].axhline(2, color="r", lw=0.8); ax[0].set_ylabel("Sigma_max / Sigma_min at x = 990 m"); ax[0].set_yscale("log")
 ax[1].axhline(V_HILL * 1e3, color="r", lw=0.8); ax[1].set_ylabel("dv_y (mm/s), LE1"); ax[1].set_yscale("log")
-ax[2].set_ylabel("dv_y far from the moonlet (mm/s), |y| > 3 r_H"); ax[2].set_yscale("log")
+ax[2].set_ylabel("dv_y upstream, |y| > 3 r_H (mm/s)"); ax[2].set_yscale("log")
 for x in ax:
     x.set_xlabel("orbits")
 ax[0].legend(fontsize=6)

@@ -125,8 +125,8 @@ TEST(LeesEdwardsRanks, PropellerPatchBridgesMultiRate) {
 TEST(LeesEdwardsRanks, PropellerPatchModifiedBoundariesMultiRate) {
   // Modified Lees-Edwards boundaries: LE2 particles crossing x are cloned into LE1 with ids
   // every rank agrees on, LE1 particles leaving x are removed, LE1 sees LE2 beyond its inflow
-  // faces. The offset sweeps the box; about 900 clones are made.
+  // faces. 5,000 steps (2,000 s): the patch's edges move 230 m, a few hundred clones are made.
   compare_rank_counts(kPropellerPatch, {"domain.modified_lees_edwards=true", "time.integrator=\"multirate\"",
                                         "time.long_step=20.0"},
-                      11000, 1000.0);
+                      5000, 0.0);
 }
