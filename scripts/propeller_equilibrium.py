@@ -64,11 +64,15 @@ def simulate(r):
         return 0.0
     sets = [f"seed={r['seed']}", f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 20:.4f}",
             "output.dump_every=0", "output.progress_every=60", f"domain.modified_lees_edwards={'true' if r['boundary'] == 'modified' else 'false'}"]
-    if "vc" in r:
-        sets += ['species.0.restitution="bridges"', f"species.0.v_c={r['vc']}"]
+    case = os.path.join(ROOT, "cases", "propeller", "case.toml")
+    if "vc" in r:  # the Bridges law takes no e: the case's e line gives way to it
+        text = open(case).read()
+        lines = [f'restitution = "bridges"\nv_c = {r["vc"]}' if l.startswith("e = ") else l for l in text.split("\n")]
+        case = d + ".toml"
+        open(case, "w").write("\n".join(lines))
     else:
         sets += [f"species.0.e={r['e']}"]
-    cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "propeller"), "--out", d, "--force"]
+    cmd = mpirun + [cassini, case, "--out", d, "--force"]
     for s in sets:
         cmd += ["--set", s]
     t = time.time()
@@ -108,7 +112,7 @@ def analyse(r):
         snap = sorted(glob.glob(os.path.join(d, "snap_*.h5md")), key=lambda s: abs(
             float(h5py.File(s)["parameters/time_offset_dt"][0]) - c["time"]))[0]
         far, le2, n1 = dispersions(snap)
-        rows.append(dict(run=r["name"], boundary=r["boundary"], law=r["law"], e=r.get("e", float("nan")), seed=r["seed"],
+        rows.append(dict(run=r["name"], boundary=r["boundary"], law=r["law"], e=r.get("e", -1.0), seed=r["seed"],
                          orbit=c["time"] / T0, contrast=c["contrast"], dv_y=c["dv_y"], v_H=c["v_H"],
                          dv_y_far=far, dv_y_le2=le2, le1_particles=n1))
     return rows
