@@ -118,20 +118,20 @@ def analyse(r):
     return rows
 
 
-todo = runs()
+planned = runs()
 if a.only is not None:
-    by_name = {r["name"]: r for r in todo}
+    by_name = {r["name"]: r for r in planned}
     missing = [n for n in a.only if n not in by_name]
     if missing:
         sys.exit(f"--only: no such run in this set: {missing} (have {sorted(by_name)})")
-    todo = [by_name[n] for n in a.only]
+    planned = [by_name[n] for n in a.only]
 if a.mode == "run":
     t0 = time.time()
     with ThreadPoolExecutor(a.lanes) as pool:
-        cpu = sum(pool.map(simulate, todo))
+        cpu = sum(pool.map(simulate, planned))
     json.dump({"cpu_seconds_of_runs": cpu, "wall_seconds": time.time() - t0}, open(os.path.join(a.out, "cost.json"), "w"))
 
-series = [row for r in todo if os.path.exists(os.path.join(a.out, r["name"], "summary.json")) for row in analyse(r)]
+series = [row for r in planned if os.path.exists(os.path.join(a.out, r["name"], "summary.json")) for row in analyse(r)]
 keys = list(series[0].keys())
 with open(os.path.join(a.out, "series.csv"), "w") as f:
     f.write(",".join(keys) + "\n")
