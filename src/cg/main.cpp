@@ -126,6 +126,17 @@ hsize_t rows_of(hid_t file, const std::string& path) {
   return dims[1];
 }
 
+// Rows of an unframed [M] or [M][w] dataset (contacts).
+hsize_t leading_rows(hid_t file, const std::string& path) {
+  hid_t d = must(H5Dopen2(file, path.c_str(), H5P_DEFAULT), "missing dataset " + path);
+  hid_t sp = H5Dget_space(d);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(sp, dims, nullptr);
+  H5Sclose(sp);
+  H5Dclose(d);
+  return dims[0];
+}
+
 struct Loaded {
   Frame frame;
   double shear_rate = 0, time = 0;
@@ -176,13 +187,7 @@ Loaded load(const std::string& path, int rank, int size, int copy) {
   // (3 values per row) share their row count. Snapshots from before wall forces have none.
   auto rows_block = [&](const std::vector<std::string>& names, std::vector<std::vector<double>*> into) {
     if (H5Lexists(file, names[0].c_str(), H5P_DEFAULT) <= 0) return;
-    hid_t d = must(H5Dopen2(file, names[0].c_str(), H5P_DEFAULT), "missing dataset " + names[0]);
-    hid_t sp = H5Dget_space(d);
-    hsize_t dims[2] = {0, 0};
-    H5Sget_simple_extent_dims(sp, dims, nullptr);
-    H5Sclose(sp);
-    H5Dclose(d);
-    const hsize_t M = dims[0], clo = M * rank / size, cn = M * (rank + 1) / size - clo;
+    const hsize_t M = leading_rows(file, names[0]), clo = M * rank / size, cn = M * (rank + 1) / size - clo;
     for (std::size_t k = 0; k < names.size(); ++k) {
       into[k]->resize(3 * cn);
       if (M > 0) read(file, names[k], clo, cn, 3, into[k]->data(), false);
@@ -208,13 +213,7 @@ Loaded load(const std::string& path, int rank, int size, int copy) {
     // The same blocks of contact rows as rows_block read; a pair belongs to the copy of its first particle.
     auto filter_contacts = [&](const std::string& ids_path, int per_row, std::vector<std::vector<double>*> arrays) {
       if (arrays[0]->empty() && H5Lexists(file, ids_path.c_str(), H5P_DEFAULT) <= 0) return;
-      hid_t d = must(H5Dopen2(file, ids_path.c_str(), H5P_DEFAULT), "missing dataset " + ids_path);
-      hid_t sp = H5Dget_space(d);
-      hsize_t dims[2] = {0, 0};
-      H5Sget_simple_extent_dims(sp, dims, nullptr);
-      H5Sclose(sp);
-      H5Dclose(d);
-      const hsize_t M = dims[0], clo = M * rank / size, cn = M * (rank + 1) / size - clo;
+      const hsize_t M = leading_rows(file, ids_path), clo = M * rank / size, cn = M * (rank + 1) / size - clo;
       std::vector<double> pid(per_row * cn);
       if (M > 0) read(file, ids_path, clo, cn, per_row, pid.data(), false);
       for (auto* a : arrays) keep_rows(*a, 3, [&](std::size_t r) { return member(pid[r * per_row]); });

@@ -64,6 +64,17 @@ void sort_by_id(const ParticleStore& p, std::uint32_t* b, std::size_t len) {
 }
 }  // namespace
 
+void NeighborList::sort_into_cells(std::size_t ncells) {
+  // Counting sort by cell_of_: cell c's particles are cell_items_[cell_start_[c], cell_start_[c + 1]).
+  const std::size_t n = cell_of_.size();
+  cell_start_.assign(ncells + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) ++cell_start_[cell_of_[i] + 1];
+  for (std::size_t c = 0; c < ncells; ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_items_.resize(n);
+  std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+}
+
 void NeighborList::build(const ParticleStore& p, const Decomposition& dom, double range, double skin) {
   double amin = 1e300, amax = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
@@ -77,15 +88,8 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   // different copies are never candidates.
   const std::size_t blocks = p.copies ? 2 : 1;
   cell_of_.resize(n);
-  cell_start_.assign(blocks * ncell + 1, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    ++cell_start_[(cell_of_[i] = g.cell(p.x[i]) + (p.copies ? p.le_copy[i] * ncell : 0)) + 1];
-  for (std::size_t c = 0; c < blocks * ncell; ++c) cell_start_[c + 1] += cell_start_[c];
-  cell_items_.resize(n);
-  {
-    std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
-  }
+  for (std::size_t i = 0; i < n; ++i) cell_of_[i] = g.cell(p.x[i]) + (p.copies ? p.le_copy[i] * ncell : 0);
+  sort_into_cells(blocks * ncell);
 
   start.resize(p.nlocal + 1);
   partner.clear();
@@ -157,19 +161,12 @@ void NeighborList::build_by_size_class(const ParticleStore& p, const Decompositi
     }
   offset[blocks * nclass] = total;
   cell_of_.resize(n);
-  cell_start_.assign(total + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
     const int c = class_of(p.radius[i]);
     const std::size_t b = p.copies ? p.le_copy[i] : 0;
     cell_of_[i] = static_cast<std::uint32_t>(offset[b * nclass + c] + grids[c].cell(p.x[i]));
-    ++cell_start_[cell_of_[i] + 1];
   }
-  for (std::size_t c = 0; c < total; ++c) cell_start_[c + 1] += cell_start_[c];
-  cell_items_.resize(n);
-  {
-    std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
-  }
+  sort_into_cells(total);
   start.resize(p.nlocal + 1);
   partner.clear();
   partner.reserve(p.nlocal * 4);

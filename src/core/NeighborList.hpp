@@ -40,6 +40,7 @@ class NeighborList {
   // A cell grid sized for the largest pair would test ~(a_max / a)^2 times more candidates.
   void build_by_size_class(const ParticleStore& p, const Decomposition& dom, double range, double skin, double amin,
                            double amax);
+  void sort_into_cells(std::size_t ncells);  // cell_start_, cell_items_ from cell_of_
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
   std::vector<Eigen::Vector4d> sorted_;
 };
