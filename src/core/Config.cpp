@@ -46,7 +46,7 @@ bool Config::has_module(const std::string& name) const {
 namespace {
 
 const std::vector<std::string> kKnownModules = {"contact", "gravity", "walls", "hill", "moonlet",
-                                                "channel", "drag", "inlet", "clog", "lubrication"};
+                                                "channel", "drag", "inlet", "clog", "lubrication", "self-gravity"};
 
 int axis_index(CaseFile& f, const std::string& key, const std::string& v) {
   if (v == "x") return 0;
@@ -268,7 +268,7 @@ Config read_config(CaseFile& f) {
   c.modules = f.strings("modules", std::vector<std::string>{"contact"});
   for (const auto& m : c.modules)
     if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end())
-      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet, channel, drag, inlet, clog, lubrication}; unknown module '" + m + "'");
+      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet, channel, drag, inlet, clog, lubrication, self-gravity}; unknown module '" + m + "'");
   for (const char* m : {"drag", "inlet", "clog"})
     if (c.has_module(m) && !c.has_module("channel")) f.fail("modules", std::string("\"channel\" with \"") + m + "\" (it needs the channel geometry)");
 
@@ -304,6 +304,30 @@ Config read_config(CaseFile& f) {
     // In the Hill frame the Keplerian shear is the natural default: v_x = 1.5 Omega0 y.
     const bool hill = c.has_module("hill");
     c.shear_rate = hill ? f.number("domain.shear_rate", 1.5 * c.omega0()) : f.number("domain.shear_rate");
+  }
+  if (c.has_module("self-gravity")) {
+    const std::string g = "self_gravity.";
+    if (c.boundary[0] != Boundary::Periodic || !c.periodic_like(1))
+      f.fail("domain.boundary", "x \"periodic\" and y \"periodic\" or \"lees_edwards\" with module \"self-gravity\" (its mesh solve is periodic in the plane)");
+    if (!c.planar && c.periodic_like(2))
+      f.fail("domain.boundary", "z \"open\" or \"wall\" with module \"self-gravity\" (gravity is isolated in z: a ring has no vertical images)");
+    if (c.modified_lees_edwards)
+      f.fail("domain.modified_lees_edwards", "false with module \"self-gravity\" (the two copies would need one field each)");
+    const std::vector<double> grid = f.numbers(g + "grid");
+    if (grid.size() != 3) f.fail(g + "grid", "[nx, ny, nz]: grid nodes along x, y and z");
+    for (int d = 0; d < 3; ++d) {
+      const double n = grid[d];
+      const bool in_plane = d < 2;
+      if (n != std::floor(n) || n < 1 || n > 4096 || (in_plane && (n < 4 || std::fmod(n, 2.0) != 0)))
+        f.fail(g + "grid", in_plane ? "even node counts 4..4096 along x and y" : "a node count 1..4096 along z");
+      c.self_gravity_grid[d] = static_cast<int>(n);
+    }
+    if (c.planar && c.self_gravity_grid[2] != 1) f.fail(g + "grid", "nz = 1 in a planar scene");
+    const double spacing = std::max((c.hi[0] - c.lo[0]) / grid[0], (c.hi[1] - c.lo[1]) / grid[1]);
+    c.self_gravity_softening = f.number(g + "softening", std::max(c.min_radius(), spacing));
+    if (!(c.self_gravity_softening > 0)) f.fail(g + "softening", "a length > 0 (m): the width of each particle's Gaussian");
+    c.self_gravity_every = f.integer(g + "every", 1);
+    if (c.self_gravity_every < 1) f.fail(g + "every", "an integer >= 1 (steps between solves)");
   }
   const bool has_walls = std::find(c.boundary.begin(), c.boundary.end(), Boundary::Wall) != c.boundary.end();
   if (has_walls && !c.has_module("walls")) c.modules.push_back("walls");  // walls are geometry

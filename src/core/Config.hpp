@@ -77,6 +77,13 @@ struct Config {
   double saturn_mass = 5.68e26, orbit_radius = 1.17e8;
   double omega0() const;
 
+  // Self-gravity of the particles (module "self-gravity", physics/SelfGravity.hpp): a particle-mesh
+  // solve on an nx x ny x nz grid (nz = 1 when planar), Gaussian softening of width eps, solved
+  // every `every` steps (impulse multiple time stepping).
+  std::array<int, 3> self_gravity_grid{0, 0, 0};
+  double self_gravity_softening = 0;
+  long self_gravity_every = 1;
+
   // Moonlet (module "moonlet"): fixed at the origin
   double moonlet_mass = 0, moonlet_radius = 0;
 

@@ -13,6 +13,7 @@
 #include "physics/Moonlet.hpp"
 #include "physics/MultiRateHill.hpp"
 #include "physics/PlaneWalls.hpp"
+#include "physics/SelfGravity.hpp"
 #include "physics/VelocityVerlet.hpp"
 
 namespace cassini {
@@ -65,6 +66,7 @@ std::vector<std::unique_ptr<Module>> make_modules(const Config& cfg, Simulation&
   if (cfg.has_module("moonlet")) m.push_back(std::make_unique<Moonlet>(cfg, sim.dt, moonlet_wall_slot(cfg)));
   if (cfg.has_module("hill")) m.push_back(std::make_unique<HillFrame>(cfg));
   if (cfg.has_module("gravity")) m.push_back(std::make_unique<Gravity>(cfg.gravity));
+  if (cfg.has_module("self-gravity")) m.push_back(std::make_unique<SelfGravity>(cfg, sim.domain));
   // Last: the guards see every module's potential energy and energy input.
   m.push_back(std::make_unique<Guards>(cfg.max_overlap_fraction, cfg.energy_growth, cfg.max_step));
   return m;

@@ -1,0 +1,247 @@
+#include "physics/SelfGravity.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include <fftw3.h>
+#include <mpi.h>
+
+#include "core/Simulation.hpp"
+
+namespace cassini {
+
+namespace {
+constexpr double kPi = 3.141592653589793;
+std::size_t wrap(long i, int n) { return static_cast<std::size_t>(((i % n) + n) % n); }
+double sinc2(double x) {
+  const double s = x == 0 ? 1.0 : std::sin(x) / x;
+  return s * s;
+}
+// exp(s) erfc(x) without overflow or underflow of the factors: for x > 0 as exp(s - x^2) erfcx(x).
+double exp_erfc(double s, double x) {
+  if (x <= 0) return std::exp(s) * std::erfc(x);
+  const double erfcx = x < 25 ? std::exp(x * x) * std::erfc(x)
+                              : 1 / (x * std::sqrt(kPi)) * (1 - 0.5 / (x * x) + 0.75 / (x * x * x * x));
+  return std::exp(s - x * x) * erfcx;
+}
+}  // namespace
+
+// Mode k of the potential and of a_z at height d above a layer of unit surface density made of
+// Gaussian spheres of width eps (the in-plane Gaussian is exp(-k^2 eps^2 / 2); convolving the
+// sheet's exp(-k |d|) with the vertical Gaussian gives the erfc terms):
+//   phi = -2 pi G / k * (e^{-kd} erfc(A) + e^{kd} erfc(B)) / 2,   a_z = pi G (e^{kd} erfc(B) - e^{-kd} erfc(A)),
+//   A = (k eps^2 - d) / (eps sqrt 2), B = (k eps^2 + d) / (eps sqrt 2);
+// at k = 0 the sheet's phi = 2 pi G E|d - s| and a_z = -2 pi G erf(d / (eps sqrt 2)). Planar
+// scenes take d = 0: phi = -2 pi G erfc(k eps / sqrt 2) / k.
+void SelfGravity::kernels(double k, double d, double& phi, double& az) const {
+  const double two_pi_g = 2 * kPi * kGravitationalConstant, e2 = eps_ * std::sqrt(2.0);
+  if (k == 0) {
+    phi = two_pi_g * (d * std::erf(d / e2) + eps_ * std::sqrt(2 / kPi) * std::exp(-d * d / (e2 * e2)));
+    az = -two_pi_g * std::erf(d / e2);
+    return;
+  }
+  const double A = (k * eps_ * eps_ - d) / e2, B = (k * eps_ * eps_ + d) / e2;
+  const double down = exp_erfc(-k * d, A), up = exp_erfc(k * d, B);
+  phi = -two_pi_g / k * 0.5 * (down + up);
+  az = 0.5 * two_pi_g * (up - down);
+}
+
+SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
+    : nx_(cfg.self_gravity_grid[0]),
+      ny_(cfg.self_gravity_grid[1]),
+      nz_(cfg.planar ? 1 : cfg.self_gravity_grid[2]),
+      planar_(cfg.planar),
+      sheared_(domain.shear.enabled),
+      lx_(domain.length[0]),
+      ly_(domain.length[1]),
+      eps_(cfg.self_gravity_softening),
+      every_(cfg.self_gravity_every),
+      shear_(0) {
+  for (int d = 0; d < 3; ++d) lo_[d] = domain.lo[d];
+  h_[0] = lx_ / nx_;
+  h_[1] = ly_ / ny_;
+  h_[2] = domain.length[2] / nz_;
+  const std::size_t nodes = static_cast<std::size_t>(nx_) * ny_ * nz_;
+  const std::size_t modes = static_cast<std::size_t>(nx_ / 2 + 1) * ny_ * nz_;
+  ax_.assign(nodes, 0.0);
+  ay_.assign(nodes, 0.0);
+  az_.assign(nodes, 0.0);
+  phi_.assign(nodes, 0.0);
+  mass_.assign(nodes, 0);
+  real_ = fftw_alloc_real(nodes);
+  spec_ = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
+  for (auto*& o : out_) o = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
+  const int n[2] = {ny_, nx_};
+  const int rdist = nx_ * ny_, cdist = (nx_ / 2 + 1) * ny_;
+  // FFTW_ESTIMATE: the plan is a function of the sizes only, the same on every rank and run.
+  forward_ = fftw_plan_many_dft_r2c(2, n, nz_, real_, nullptr, 1, rdist, reinterpret_cast<fftw_complex*>(spec_),
+                                    nullptr, 1, cdist, FFTW_ESTIMATE);
+  for (int c = 0; c < 4; ++c)
+    backward_[c] = fftw_plan_many_dft_c2r(2, n, nz_, reinterpret_cast<fftw_complex*>(out_[c]), nullptr, 1, cdist,
+                                          real_, nullptr, 1, rdist, FFTW_ESTIMATE);
+}
+
+SelfGravity::~SelfGravity() {
+  fftw_destroy_plan(static_cast<fftw_plan>(forward_));
+  for (void* b : backward_) fftw_destroy_plan(static_cast<fftw_plan>(b));
+  fftw_free(real_);
+  fftw_free(spec_);
+  for (auto* o : out_) fftw_free(o);
+}
+
+SelfGravity::Stencil SelfGravity::stencil(const Vec3& x) const {
+  Stencil s{};
+  const double xs = sheared_ ? x[0] - shear_ * (x[1] - lo_[1]) / ly_ : x[0];
+  const double u = (xs - lo_[0]) / h_[0], v = (x[1] - lo_[1]) / h_[1];
+  const double fu = std::floor(u), fv = std::floor(v);
+  const double wx = u - fu, wy = v - fv;
+  const std::size_t i0 = wrap(static_cast<long>(fu), nx_), i1 = wrap(static_cast<long>(fu) + 1, nx_);
+  const std::size_t j0 = wrap(static_cast<long>(fv), ny_), j1 = wrap(static_cast<long>(fv) + 1, ny_);
+  const std::size_t nx = nx_, plane = static_cast<std::size_t>(nx_) * ny_;
+  std::size_t k0 = 0, k1 = 0;
+  double wz = 0;
+  if (!planar_) {  // layer centres at lo_z + (k + 1/2) h_z; beyond the outer centres, the outer layer
+    const double t = (x[2] - lo_[2]) / h_[2] - 0.5;
+    if (t <= 0) {
+      k0 = k1 = 0;
+    } else if (t >= nz_ - 1) {
+      k0 = k1 = nz_ - 1;
+    } else {
+      k0 = static_cast<std::size_t>(t);
+      k1 = k0 + 1;
+      wz = t - static_cast<double>(k0);
+    }
+  }
+  const std::size_t ks[2] = {k0, k1};
+  const double wzs[2] = {1 - wz, wz};
+  for (int c = 0; c < (planar_ ? 1 : 2); ++c)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        s.node[s.n] = ks[c] * plane + (b ? j1 : j0) * nx + (a ? i1 : i0);
+        s.w[s.n] = (a ? wx : 1 - wx) * (b ? wy : 1 - wy) * wzs[c];
+        ++s.n;
+      }
+  return s;
+}
+
+double SelfGravity::interpolate(const std::vector<double>& g, const Stencil& s) const {
+  double r = 0;
+  for (int q = 0; q < s.n; ++q) r += s.w[q] * g[s.node[q]];
+  return r;
+}
+
+Vec3 SelfGravity::field(const Vec3& x) const {
+  const Stencil s = stencil(x);
+  return Vec3(interpolate(ax_, s), interpolate(ay_, s), planar_ ? 0.0 : interpolate(az_, s));
+}
+
+double SelfGravity::potential(const Vec3& x) const { return interpolate(phi_, stencil(x)); }
+
+void SelfGravity::solve(const Simulation& sim) {
+  const auto start = std::chrono::steady_clock::now();
+  const ParticleStore& p = sim.particles;
+  // The least tilted of the equivalent sheared grids: S in [-Lx/2, Lx/2).
+  if (sheared_) {
+    shear_ = sim.domain.shear.wrapped(lx_);
+    if (shear_ >= 0.5 * lx_) shear_ -= lx_;
+  }
+
+  // Deposit in fixed point: the all-reduced sum is exact, so independent of the rank count.
+  double heaviest = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) heaviest = std::max(heaviest, p.mass[i]);
+  MPI_Allreduce(MPI_IN_PLACE, &heaviest, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  const double unit = heaviest > 0 ? std::ldexp(heaviest, -40) : 1.0;
+  std::fill(mass_.begin(), mass_.end(), 0);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!planar_ && (p.x[i][2] < lo_[2] || p.x[i][2] > lo_[2] + nz_ * h_[2])) ++outside_;
+    const Stencil s = stencil(p.x[i]);
+    for (int q = 0; q < s.n; ++q) mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, mass_.data(), static_cast<int>(mass_.size()), MPI_INT64_T, MPI_SUM, sim.domain.comm);
+  const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
+  for (std::size_t g = 0; g < mass_.size(); ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
+  fftw_execute(static_cast<fftw_plan>(forward_));
+
+  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
+  const int mx = nx_ / 2 + 1;
+  const std::size_t cplane = static_cast<std::size_t>(mx) * ny_;
+  const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
+  std::vector<double> P(nz_), Z(nz_);  // potential and a_z kernels at layer offset d = +|a - b| h_z
+  const std::complex<double> I(0, 1);
+  for (int j = 0; j < ny_; ++j) {
+    const int n = j <= ny_ / 2 ? j : j - ny_;
+    for (int m = 0; m < mx; ++m) {
+      const std::size_t c = static_cast<std::size_t>(j) * mx + m;
+      if (m == nx_ / 2 || j == ny_ / 2) {  // Nyquist: no odd derivative there
+        for (int k = 0; k < nz_; ++k)
+          for (auto* o : out_) o[k * cplane + c] = 0;
+        continue;
+      }
+      const double kx = 2 * kPi * m / lx_, ky = 2 * kPi * n / ly_ - kx * shear_ / ly_;
+      // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
+      const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
+      const double scale = norm / (w * w);
+      for (int d = 0; d < nz_; ++d) {
+        kernels(std::hypot(kx, ky), d * h_[2], P[d], Z[d]);
+        P[d] *= scale;
+        Z[d] *= scale;
+      }
+      for (int a = 0; a < nz_; ++a) {
+        std::complex<double> phi = 0, az = 0;
+        for (int b = 0; b < nz_; ++b) {
+          const std::complex<double> s = spec_[b * cplane + c];
+          phi += P[std::abs(a - b)] * s;
+          az += (a >= b ? Z[a - b] : -Z[b - a]) * s;
+        }
+        out_[0][a * cplane + c] = -I * kx * phi;
+        out_[1][a * cplane + c] = -I * ky * phi;
+        out_[2][a * cplane + c] = az;
+        out_[3][a * cplane + c] = phi;
+      }
+    }
+  }
+  std::vector<double>* fields[4] = {&ax_, &ay_, &az_, &phi_};
+  for (int f = 0; f < 4; ++f) {
+    if (f == 2 && planar_) continue;
+    fftw_execute(static_cast<fftw_plan>(backward_[f]));
+    std::copy(real_, real_ + mass_.size(), fields[f]->begin());
+  }
+  ++solves_;
+  solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void SelfGravity::setup(Simulation& sim) {
+  // A restored run has its forces; the field is needed for the energy bookkeeping.
+  if (sim.restored) solve(sim);
+}
+
+void SelfGravity::force(Simulation& sim) {
+  if (sim.step_count % every_ != 0) return;
+  solve(sim);
+  ParticleStore& p = sim.particles;
+  const double weight = static_cast<double>(every_);  // the impulse of `every` steps
+  const Simulation::TargetList T = sim.target_list();
+  for (std::size_t t = 0; t < T.count; ++t) {
+    const std::size_t i = T[t];
+    p.f[i] += weight * p.mass[i] * field(p.x[i]);
+  }
+  std::ostringstream os;
+  os << "{\"solves\": " << solves_ << ", \"seconds\": " << solve_seconds_ << ", \"grid\": [" << nx_ << ", " << ny_
+     << ", " << nz_ << "]}";
+  sim.set_result("self_gravity", os.str());
+}
+
+void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  const ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * field(p.x[i]);
+}
+
+double SelfGravity::potential_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  double u = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) u += 0.5 * p.mass[i] * potential(p.x[i]);
+  return u;
+}
+
+}  // namespace cassini
