@@ -25,6 +25,10 @@ double Config::min_radius() const {
   return r;
 }
 
+double Config::self_gravity_reach() const {
+  return has_module("self-gravity") && self_gravity_short_range ? 4 * std::sqrt(2.0) * self_gravity_split : 0.0;
+}
+
 double Config::omega0() const { return std::sqrt(kGravitationalConstant * saturn_mass / std::pow(orbit_radius, 3)); }
 
 bool Config::velocity_dependent_restitution() const {
@@ -324,8 +328,9 @@ Config read_config(CaseFile& f) {
     }
     if (c.planar && c.self_gravity_grid[2] != 1) f.fail(g + "grid", "nz = 1 in a planar scene");
     const double spacing = std::max((c.hi[0] - c.lo[0]) / grid[0], (c.hi[1] - c.lo[1]) / grid[1]);
-    c.self_gravity_softening = f.number(g + "softening", std::max(c.min_radius(), spacing));
-    if (!(c.self_gravity_softening > 0)) f.fail(g + "softening", "a length > 0 (m): the width of each particle's Gaussian");
+    c.self_gravity_split = f.number(g + "split", spacing);
+    if (!(c.self_gravity_split > 0)) f.fail(g + "split", "a length > 0 (m): the width of the Gaussian splitting mesh and pairs");
+    c.self_gravity_short_range = f.boolean(g + "short_range", true);
     c.self_gravity_every = f.integer(g + "every", 1);
     if (c.self_gravity_every < 1) f.fail(g + "every", "an integer >= 1 (steps between solves)");
   }
@@ -434,6 +439,12 @@ Config read_config(CaseFile& f) {
       if (!(c.volume_fraction > 0 && c.volume_fraction < 0.74))
         f.fail("particles.volume_fraction", "a volume fraction in (0, 0.74)");
     }
+    if (c.init == "random" && f.has("particles.layer")) {
+      if (c.planar) f.fail("particles.layer", "a 3D scene (a planar one has no thickness)");
+      c.init_layer = f.number("particles.layer");
+      if (!(c.init_layer > 0 && c.init_layer <= c.hi[2] - c.lo[2]))
+        f.fail("particles.layer", "a thickness in (0, the box's z length] (m)");
+    }
     if (c.init == "lattice") {
       c.lattice_jitter = f.number("particles.jitter", 0.0);
       // Each site moves by up to +-jitter gap/2 per axis: two neighbours never close the gap for jitter <= 1.
@@ -459,11 +470,11 @@ Config read_config(CaseFile& f) {
   c.max_step = positive(f, "guards.max_step", 0.5);
 
   // A box too small for the interaction range cannot be decomposed or imaged correctly.
-  const double range = c.pair_range();
+  const double range = c.halo_range();
   for (int d = 0; d < (c.planar ? 2 : 3); ++d)
     if (c.periodic_like(d) && c.hi[d] - c.lo[d] < 2 * range)
-      f.fail("domain.hi", "a periodic box at least 2 x (2 a_max + lubrication reach + skin) = " + std::to_string(2 * range) +
-                              " long on every periodic axis");
+      f.fail("domain.hi", "a periodic box at least 2 x (2 a_max + lubrication reach + skin, or self-gravity's pair reach + skin) = " +
+                              std::to_string(2 * range) + " long on every periodic axis");
 
   f.reject_unknown_keys();
   return c;

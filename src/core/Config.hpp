@@ -1,6 +1,7 @@
 #pragma once
 // The resolved, validated description of a run. Built once from a case file; everything
 // downstream reads this plain struct, never the TOML.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -78,11 +79,16 @@ struct Config {
   double omega0() const;
 
   // Self-gravity of the particles (module "self-gravity", physics/SelfGravity.hpp): a particle-mesh
-  // solve on an nx x ny x nz grid (nz = 1 when planar), Gaussian softening of width eps, solved
-  // every `every` steps (impulse multiple time stepping).
+  // solve on an nx x ny x nz grid (nz = 1 when planar) for the long range, split from the short
+  // range (pairs, Newton minus the mesh's part) by a Gaussian of width `split`; solved every
+  // `every` steps (impulse multiple time stepping).
   std::array<int, 3> self_gravity_grid{0, 0, 0};
-  double self_gravity_softening = 0;
+  double self_gravity_split = 0;
+  bool self_gravity_short_range = true;
   long self_gravity_every = 1;
+  // Pairs closer than this get the short-range part (0 without it): 4 sqrt 2 split, where the
+  // Gaussian's complement has fallen to 5e-7 of Newton's force.
+  double self_gravity_reach() const;
 
   // Moonlet (module "moonlet"): fixed at the origin
   double moonlet_mass = 0, moonlet_radius = 0;
@@ -101,6 +107,7 @@ struct Config {
   double dispersion_fraction = 0;  // extra Gaussian dispersion, fraction of |shear_rate y|
   double optical_depth = 0;     // planar ring: N pi a^2 / (Lx Ly)
   double lattice_jitter = 0;  // random displacement, as a fraction of the lattice gap
+  double init_layer = 0;      // random, 3D: centres within +-layer/2 of the box's mid-plane (0: the whole box)
 
   std::vector<std::string> modules;
   Vec3 gravity{0, 0, 0};
@@ -149,6 +156,8 @@ struct Config {
   // Largest centre distance at which two particles interact, plus the skin: the neighbour
   // list's and the halo's range.
   double pair_range() const { return 2 * max_radius() + lubrication_reach + skin; }
+  // The ghost halo's width: the pair range, or wider for the short range of self-gravity.
+  double halo_range() const { return std::max(pair_range(), self_gravity_reach() + skin); }
   bool has_module(const std::string& name) const;
   bool sheared() const { return boundary[1] == Boundary::LeesEdwards; }
   bool periodic_like(int d) const { return boundary[d] == Boundary::Periodic || boundary[d] == Boundary::LeesEdwards; }

@@ -43,6 +43,11 @@ void centre_bounds(const Config& cfg, Vec3& lo, Vec3& hi) {
     hi[d] = cfg.hi[d] - (per ? 0 : a);
   }
   if (cfg.planar) lo[2] = hi[2] = 0.5 * (cfg.lo[2] + cfg.hi[2]);
+  if (cfg.init_layer > 0) {  // a ring's initial layer about the mid-plane
+    const double mid = 0.5 * (cfg.lo[2] + cfg.hi[2]);
+    lo[2] = std::max(lo[2], mid - 0.5 * cfg.init_layer);
+    hi[2] = std::min(hi[2], mid + 0.5 * cfg.init_layer);
+  }
 }
 
 double mean_power(const Species& s, int k) { return s.sizes.mean_power(s.radius_min, s.radius_max, k); }
@@ -63,7 +68,8 @@ double draw_radius(const Species& s, Random& rng) {
 // Random sequential addition with a cell grid; refuses packings it cannot reach.
 std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) {
   const Species& s = cfg.species[cfg.init_species];
-  const Vec3 L = cfg.hi - cfg.lo;
+  Vec3 L = cfg.hi - cfg.lo;
+  if (cfg.init_layer > 0) L[2] = std::max(cfg.init_layer, 2 * s.radius_max);  // the layer's volume
   const double fraction = cfg.planar ? n * std::numbers::pi * mean_power(s, 2) / (L[0] * L[1])
                                      : n * 4.0 / 3.0 * std::numbers::pi * mean_power(s, 3) / L.prod();
   const double limit = cfg.planar ? 0.50 : 0.35;  // below the random-sequential-addition jamming limits

@@ -17,7 +17,7 @@
 namespace cassini {
 
 Simulation::Simulation(const Config& c, MPI_Comm comm)
-    : cfg(c), domain(c, comm), halo(domain, c.pair_range()) {
+    : cfg(c), domain(c, comm), halo(domain, c.halo_range()) {
   dt = cfg.dt;
   skin = cfg.skin;
   range = cfg.pair_range();  // largest a_i + a_j (+ lubrication reach) + skin

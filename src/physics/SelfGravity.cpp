@@ -1,5 +1,6 @@
 #include "physics/SelfGravity.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -53,9 +54,11 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
       nz_(cfg.planar ? 1 : cfg.self_gravity_grid[2]),
       planar_(cfg.planar),
       sheared_(domain.shear.enabled),
+      short_(cfg.self_gravity_short_range),
+      reach_(cfg.self_gravity_reach()),
       lx_(domain.length[0]),
       ly_(domain.length[1]),
-      eps_(cfg.self_gravity_softening),
+      eps_(cfg.self_gravity_split),
       every_(cfg.self_gravity_every),
       shear_(0) {
   for (int d = 0; d < 3; ++d) lo_[d] = domain.lo[d];
@@ -162,6 +165,14 @@ void SelfGravity::solve(const Simulation& sim) {
   const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
   for (std::size_t g = 0; g < mass_.size(); ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
   fftw_execute(static_cast<fftw_plan>(forward_));
+  // A ring fills a few of the layers: only those are sources (the same list on every rank).
+  std::vector<int> sources;
+  const std::size_t plane = static_cast<std::size_t>(nx_) * ny_;
+  for (int b = 0; b < nz_; ++b)
+    if (std::any_of(mass_.begin() + b * plane, mass_.begin() + (b + 1) * plane, [](std::int64_t q) { return q != 0; }))
+      sources.push_back(b);
+  int reach = 0;  // the largest layer distance from a source to any layer
+  if (!sources.empty()) reach = std::max(nz_ - 1 - sources.front(), sources.back());
 
   // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
   const int mx = nx_ / 2 + 1;
@@ -182,14 +193,19 @@ void SelfGravity::solve(const Simulation& sim) {
       // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
       const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
       const double scale = norm / (w * w);
-      for (int d = 0; d < nz_; ++d) {
-        kernels(std::hypot(kx, ky), d * h_[2], P[d], Z[d]);
+      const double k = std::hypot(kx, ky);
+      for (int d = 0; d <= reach; ++d) {
+        if (k * (d * h_[2] - 10 * eps_) > 40) {  // exp(-k d) below 1e-17 (and the Gaussian's tail)
+          P[d] = Z[d] = 0;
+          continue;
+        }
+        kernels(k, d * h_[2], P[d], Z[d]);
         P[d] *= scale;
         Z[d] *= scale;
       }
       for (int a = 0; a < nz_; ++a) {
         std::complex<double> phi = 0, az = 0;
-        for (int b = 0; b < nz_; ++b) {
+        for (const int b : sources) {
           const std::complex<double> s = spec_[b * cplane + c];
           phi += P[std::abs(a - b)] * s;
           az += (a >= b ? Z[a - b] : -Z[b - a]) * s;
@@ -216,31 +232,99 @@ void SelfGravity::setup(Simulation& sim) {
   if (sim.restored) solve(sim);
 }
 
+void SelfGravity::index_pairs(const ParticleStore& p) const {
+  const std::size_t n = p.size();
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (std::size_t i = 0; i < n; ++i) {
+    lo = lo.cwiseMin(p.x[i]);
+    hi = hi.cwiseMax(p.x[i]);
+  }
+  cell_lo_ = lo;
+  std::size_t total = 1;
+  for (int d = 0; d < 3; ++d) {
+    cells_[d] = n ? std::clamp(static_cast<int>((hi[d] - lo[d]) / reach_) + 1, 1, 512) : 1;
+    total *= cells_[d];
+  }
+  std::vector<std::uint32_t> cell(n);
+  cell_start_.assign(total + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::size_t c = 0;
+    for (int d = 2; d >= 0; --d)
+      c = c * cells_[d] + std::min(cells_[d] - 1, static_cast<int>((p.x[i][d] - lo[d]) / reach_));
+    cell[i] = static_cast<std::uint32_t>(c);
+    ++cell_start_[c + 1];
+  }
+  for (std::size_t c = 0; c < total; ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_items_.resize(n);
+  std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi) const {
+  // Partners in id order: the sum's rounding is then that of any rank count.
+  partners_.clear();
+  const Vec3& xi = p.x[i];
+  int c[3];
+  for (int d = 0; d < 3; ++d)
+    c[d] = std::min(cells_[d] - 1, static_cast<int>((xi[d] - cell_lo_[d]) / reach_));
+  const double r2max = reach_ * reach_;
+  for (int z = std::max(0, c[2] - 1); z <= std::min(cells_[2] - 1, c[2] + 1); ++z)
+    for (int y = std::max(0, c[1] - 1); y <= std::min(cells_[1] - 1, c[1] + 1); ++y)
+      for (int x = std::max(0, c[0] - 1); x <= std::min(cells_[0] - 1, c[0] + 1); ++x) {
+        const std::size_t cell = (static_cast<std::size_t>(z) * cells_[1] + y) * cells_[0] + x;
+        for (std::uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+          const std::uint32_t j = cell_items_[k];
+          if (j != i && (p.x[j] - xi).squaredNorm() < r2max) partners_.emplace_back(p.id[j], j);
+        }
+      }
+  std::sort(partners_.begin(), partners_.end());
+  const double G = kGravitationalConstant, e2 = eps_ * std::sqrt(2.0);
+  Vec3 a = Vec3::Zero();
+  double u = 0;
+  for (const auto& [id, j] : partners_) {
+    const Vec3 d = p.x[j] - xi;
+    const double r = d.norm(), x = r / e2, tail = std::erfc(x);
+    a += (G * p.mass[j] * (tail + 2 / std::sqrt(kPi) * x * std::exp(-x * x)) / (r * r * r)) * d;
+    u -= G * p.mass[j] * tail / r;
+  }
+  if (phi) *phi = u;
+  return a;
+}
+
 void SelfGravity::force(Simulation& sim) {
   if (sim.step_count % every_ != 0) return;
   solve(sim);
   ParticleStore& p = sim.particles;
+  if (short_) index_pairs(p);
   const double weight = static_cast<double>(every_);  // the impulse of `every` steps
   const Simulation::TargetList T = sim.target_list();
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
-    p.f[i] += weight * p.mass[i] * field(p.x[i]);
+    const Vec3 a = short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]);
+    p.f[i] += weight * p.mass[i] * a;
   }
   std::ostringstream os;
   os << "{\"solves\": " << solves_ << ", \"seconds\": " << solve_seconds_ << ", \"grid\": [" << nx_ << ", " << ny_
-     << ", " << nz_ << "]}";
+     << ", " << nz_ << "], \"split\": " << eps_ << ", \"short_range\": " << (short_ ? "true" : "false") << "}";
   sim.set_result("self_gravity", os.str());
 }
 
 void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
-  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * field(p.x[i]);
+  if (short_) index_pairs(p);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    F[i] += p.mass[i] * (short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]));
 }
 
 double SelfGravity::potential_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
+  if (short_) index_pairs(p);
   double u = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) u += 0.5 * p.mass[i] * potential(p.x[i]);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    double near = 0;
+    if (short_) short_range(p, i, &near);
+    u += 0.5 * p.mass[i] * (potential(p.x[i]) + near);
+  }
   return u;
 }
 

@@ -12,15 +12,26 @@
 // exactly by the sheet's Green's function (kernels() in the .cpp): no padding, no vertical
 // images, O(N_z^2) per mode. Planar scenes use one layer and only the in-plane force.
 //
-// Softening: every particle is a Gaussian sphere of width eps (self_gravity.softening; default
-// the larger of the smallest radius and the grid spacing). Outside a few eps its pull is
-// Newton's exactly (a sphere, not the flat disc a 2D-softened sheet code uses, whose in-plane
-// pull exceeds Newton's by ~3 eps^2 / r^2). The cloud-in-cell (CIC) windows of assignment and
-// interpolation are divided out of every mode. Both use the same weights and the force kernels
-// are odd, so pair forces are antisymmetric: total momentum is conserved to round-off and
-// there is no self-force (Hockney & Eastwood); the Nyquist modes, where a derivative cannot be
-// odd, are dropped. Measured accuracy (tests/test_self_gravity.cpp, docs/rings.md): with
-// eps = h, a few per cent at 2-3 h, ~1 % beyond 5 h.
+// Long and short range (P3M with a Gaussian split, as Ewald summation splits): the mesh carries
+// the pull of Gaussian spheres of width eps (self_gravity.split; default the grid spacing), and
+// pairs closer than r_s = 4 sqrt(2) eps add the rest, Newton's law minus the Gaussians',
+//   g_short(r) = G m / r^2 (erfc(x) + 2 x exp(-x^2) / sqrt(pi)),  x = r / (eps sqrt 2),
+// which is 5e-7 of Newton's at r_s. Together: Newton's law between the particles' centres at
+// every distance (exact for non-overlapping spheres: no softening is needed), including
+// particles resting on each other in a wake. The halo is widened to r_s + skin for the pairs;
+// each particle sums its partners in id order (the same on any rank count). Without the short
+// range (self_gravity.short_range = false) every particle is a Gaussian of width eps: cheaper,
+// right only on scales well above eps. A Gaussian sphere pulls as Newton's law outside a few
+// eps (a flat disc, as 2D-softened sheet codes use, would pull ~3 eps^2 / r^2 too hard).
+//
+// Accuracy of the mesh part: the cloud-in-cell (CIC) windows of assignment and interpolation
+// are divided out of every mode. Both use the same weights and the force kernels are odd, so
+// the mesh's pair forces are antisymmetric: total momentum is conserved to round-off and there
+// is no self-force (Hockney & Eastwood); the Nyquist modes, where a derivative cannot be odd,
+// are dropped. Against the Gaussian law its error is ~10 % at r = h, ~4 % at 2-3 h and ~1 %
+// beyond 5 h for eps = h, and 4 %, 2-4 %, < 1 % for eps = 2 h (tests/test_self_gravity.cpp);
+// with the short range, where the Gaussian's pull is a small part of Newton's, the errors of
+// the total are a fraction of these (docs/rings.md).
 //
 // In parallel every rank deposits its owned particles as integers (units of 2^-40 of the
 // heaviest particle's mass), one integer all-reduce sums the grid exactly (order-independent),
@@ -37,6 +48,7 @@
 
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ParticleStore.hpp"
 
 namespace cassini {
 
@@ -53,14 +65,18 @@ class SelfGravity : public Module {
   void setup(Simulation& sim) override;
   void force(Simulation& sim) override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
-  // 1/2 sum m phi over the owned particles, from the last solve's field.
+  // 1/2 sum m phi over the owned particles, the mesh part from the last solve's field.
   double potential_energy(const Simulation& sim) const override;
 
-  // Solves the field of the owned particles of every rank (collective); then field() and
-  // potential() give acceleration and potential at any point of the box.
+  // Solves the mesh field of the owned particles of every rank (collective); then field() and
+  // potential() give its acceleration and potential at any point of the box.
   void solve(const Simulation& sim);
   Vec3 field(const Vec3& x) const;
   double potential(const Vec3& x) const;
+  // The short-range acceleration of particle i (owned) from its partners within r_s, owned or
+  // ghosts, and (if asked) its short-range potential. Needs index_pairs() after the last move.
+  Vec3 short_range(const ParticleStore& p, std::size_t i, double* phi = nullptr) const;
+  void index_pairs(const ParticleStore& p) const;  // bins owned and ghost particles into cells of r_s
 
   long solves() const { return solves_; }
   double solve_seconds() const { return solve_seconds_; }
@@ -77,7 +93,13 @@ class SelfGravity : public Module {
   void kernels(double k, double d, double& phi, double& az) const;
 
   int nx_, ny_, nz_;
-  bool planar_, sheared_;
+  bool planar_, sheared_, short_;
+  double reach_;  // r_s
+  // Cells of r_s over the owned and ghost particles (index_pairs).
+  mutable Vec3 cell_lo_;
+  mutable int cells_[3] = {1, 1, 1};
+  mutable std::vector<std::uint32_t> cell_start_, cell_items_;
+  mutable std::vector<std::pair<std::int64_t, std::uint32_t>> partners_;
   double lx_, ly_, lo_[3], h_[3];
   double eps_;
   long every_;
