@@ -74,6 +74,10 @@ class Module {
   // conservative force gives the potential energy of this rank's owned particles; one that
   // feeds energy otherwise (drag, an inlet) the work it has done on them since the run started.
   virtual double potential_energy(const Simulation&) const { return 0.0; }
+  // True when that potential energy is the same for every periodic or sheared image of the
+  // particles (the ring's self-gravity, unlike the tide): wrapping a particle across the box's
+  // faces then moves no energy, and the rebuild need not evaluate it before and after.
+  virtual bool image_invariant_potential() const { return false; }
   virtual double energy_input() const { return 0.0; }
 };
 

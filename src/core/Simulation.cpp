@@ -105,7 +105,8 @@ void Simulation::rebuild() {
   // the particles the modified boundaries add and remove.
   auto potential = [&] {
     double u = 0;
-    for (const auto& m : modules) u += m->potential_energy(*this);
+    for (const auto& m : modules)
+      if (!m->image_invariant_potential()) u += m->potential_energy(*this);
     return u;
   };
   {
@@ -231,7 +232,8 @@ void Simulation::step() {
     MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, domain.comm);
   }
   if (global[1] > 0) check_guards();
-  const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * range;
+  // The halo may reach further than the pair range (self-gravity's pairs): its ghosts must stay valid too.
+  const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * std::max(range, cfg.halo_range());
   rebuilt_this_step = approach > skin;
   if (rebuilt_this_step) {
     rebuild();

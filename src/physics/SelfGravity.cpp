@@ -14,6 +14,7 @@ namespace cassini {
 
 namespace {
 constexpr double kPi = 3.141592653589793;
+constexpr int kTable = 1 << 14;  // entries of the short-range tables
 std::size_t wrap(long i, int n) { return static_cast<std::size_t>(((i % n) + n) % n); }
 double sinc2(double x) {
   const double s = x == 0 ? 1.0 : std::sin(x) / x;
@@ -62,6 +63,16 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
       every_(cfg.self_gravity_every),
       shear_(0) {
   for (int d = 0; d < 3; ++d) lo_[d] = domain.lo[d];
+  if (short_) {
+    const int n = kTable;
+    w_table_.resize(n + 2);
+    erfc_table_.resize(n + 2);
+    for (int k = 0; k <= n + 1; ++k) {
+      const double x = reach_ * std::sqrt(static_cast<double>(k) / n) / (eps_ * std::sqrt(2.0));
+      erfc_table_[k] = std::erfc(x);
+      w_table_[k] = std::erfc(x) + 2 / std::sqrt(kPi) * x * std::exp(-x * x);
+    }
+  }
   h_[0] = lx_ / nx_;
   h_[1] = ly_ / ny_;
   h_[2] = domain.length[2] / nz_;
@@ -77,17 +88,17 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
   for (auto*& o : out_) o = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
   const int n[2] = {ny_, nx_};
   const int rdist = nx_ * ny_, cdist = (nx_ / 2 + 1) * ny_;
-  // FFTW_ESTIMATE: the plan is a function of the sizes only, the same on every rank and run.
-  forward_ = fftw_plan_many_dft_r2c(2, n, nz_, real_, nullptr, 1, rdist, reinterpret_cast<fftw_complex*>(spec_),
-                                    nullptr, 1, cdist, FFTW_ESTIMATE);
-  for (int c = 0; c < 4; ++c)
-    backward_[c] = fftw_plan_many_dft_c2r(2, n, nz_, reinterpret_cast<fftw_complex*>(out_[c]), nullptr, 1, cdist,
-                                          real_, nullptr, 1, rdist, FFTW_ESTIMATE);
+  // One 2D transform per layer, run on the layers that matter (fftw_execute_dft_* on each).
+  // FFTW_ESTIMATE | FFTW_UNALIGNED: the plan is a function of the sizes only and takes one code
+  // path for any layer's address, the same on every rank and run.
+  const unsigned flags = FFTW_ESTIMATE | FFTW_UNALIGNED;
+  forward_ = fftw_plan_dft_r2c_2d(ny_, nx_, real_, reinterpret_cast<fftw_complex*>(spec_), flags);
+  backward_ = fftw_plan_dft_c2r_2d(ny_, nx_, reinterpret_cast<fftw_complex*>(out_[0]), real_, flags);
 }
 
 SelfGravity::~SelfGravity() {
   fftw_destroy_plan(static_cast<fftw_plan>(forward_));
-  for (void* b : backward_) fftw_destroy_plan(static_cast<fftw_plan>(b));
+  fftw_destroy_plan(static_cast<fftw_plan>(backward_));
   fftw_free(real_);
   fftw_free(spec_);
   for (auto* o : out_) fftw_free(o);
@@ -141,7 +152,7 @@ Vec3 SelfGravity::field(const Vec3& x) const {
 
 double SelfGravity::potential(const Vec3& x) const { return interpolate(phi_, stencil(x)); }
 
-void SelfGravity::solve(const Simulation& sim) {
+void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   const auto start = std::chrono::steady_clock::now();
   const ParticleStore& p = sim.particles;
   // The least tilted of the equivalent sheared grids: S in [-Lx/2, Lx/2).
@@ -164,19 +175,27 @@ void SelfGravity::solve(const Simulation& sim) {
   MPI_Allreduce(MPI_IN_PLACE, mass_.data(), static_cast<int>(mass_.size()), MPI_INT64_T, MPI_SUM, sim.domain.comm);
   const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
   for (std::size_t g = 0; g < mass_.size(); ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
-  fftw_execute(static_cast<fftw_plan>(forward_));
-  // A ring fills a few of the layers: only those are sources (the same list on every rank).
+  // A ring fills a few of the layers: only those are sources (the same list on every rank), and
+  // the particles (where force() interpolates) sit in them.
   std::vector<int> sources;
   const std::size_t plane = static_cast<std::size_t>(nx_) * ny_;
   for (int b = 0; b < nz_; ++b)
     if (std::any_of(mass_.begin() + b * plane, mass_.begin() + (b + 1) * plane, [](std::int64_t q) { return q != 0; }))
       sources.push_back(b);
-  int reach = 0;  // the largest layer distance from a source to any layer
-  if (!sources.empty()) reach = std::max(nz_ - 1 - sources.front(), sources.back());
-
-  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
   const int mx = nx_ / 2 + 1;
   const std::size_t cplane = static_cast<std::size_t>(mx) * ny_;
+  for (const int b : sources)
+    fftw_execute_dft_r2c(static_cast<fftw_plan>(forward_), real_ + b * plane,
+                         reinterpret_cast<fftw_complex*>(spec_ + b * cplane));
+  int first = 0, last = nz_ - 1;  // the layers whose field is computed
+  if (!every_layer && !sources.empty()) {
+    first = std::max(0, sources.front() - 1);
+    last = std::min(nz_ - 1, sources.back() + 1);
+  }
+  int reach = 0;  // the largest layer distance from a source to a computed layer
+  if (!sources.empty()) reach = std::max(last - sources.front(), sources.back() - first);
+
+  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
   std::vector<double> P(nz_), Z(nz_);  // potential and a_z kernels at layer offset d = +|a - b| h_z
   const std::complex<double> I(0, 1);
@@ -185,7 +204,7 @@ void SelfGravity::solve(const Simulation& sim) {
     for (int m = 0; m < mx; ++m) {
       const std::size_t c = static_cast<std::size_t>(j) * mx + m;
       if (m == nx_ / 2 || j == ny_ / 2) {  // Nyquist: no odd derivative there
-        for (int k = 0; k < nz_; ++k)
+        for (int k = first; k <= last; ++k)
           for (auto* o : out_) o[k * cplane + c] = 0;
         continue;
       }
@@ -203,7 +222,7 @@ void SelfGravity::solve(const Simulation& sim) {
         P[d] *= scale;
         Z[d] *= scale;
       }
-      for (int a = 0; a < nz_; ++a) {
+      for (int a = first; a <= last; ++a) {
         std::complex<double> phi = 0, az = 0;
         for (const int b : sources) {
           const std::complex<double> s = spec_[b * cplane + c];
@@ -220,16 +239,14 @@ void SelfGravity::solve(const Simulation& sim) {
   std::vector<double>* fields[4] = {&ax_, &ay_, &az_, &phi_};
   for (int f = 0; f < 4; ++f) {
     if (f == 2 && planar_) continue;
-    fftw_execute(static_cast<fftw_plan>(backward_[f]));
-    std::copy(real_, real_ + mass_.size(), fields[f]->begin());
+    for (int a = first; a <= last; ++a) {
+      fftw_execute_dft_c2r(static_cast<fftw_plan>(backward_), reinterpret_cast<fftw_complex*>(out_[f] + a * cplane),
+                           real_ + a * plane);
+      std::copy(real_ + a * plane, real_ + (a + 1) * plane, fields[f]->begin() + a * plane);
+    }
   }
   ++solves_;
   solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-void SelfGravity::setup(Simulation& sim) {
-  // A restored run has its forces; the field is needed for the energy bookkeeping.
-  if (sim.restored) solve(sim);
 }
 
 void SelfGravity::index_pairs(const ParticleStore& p) const {
@@ -278,14 +295,17 @@ Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi
         }
       }
   std::sort(partners_.begin(), partners_.end());
-  const double G = kGravitationalConstant, e2 = eps_ * std::sqrt(2.0);
+  const double G = kGravitationalConstant, to_s = kTable / r2max;
   Vec3 a = Vec3::Zero();
   double u = 0;
   for (const auto& [id, j] : partners_) {
     const Vec3 d = p.x[j] - xi;
-    const double r = d.norm(), x = r / e2, tail = std::erfc(x);
-    a += (G * p.mass[j] * (tail + 2 / std::sqrt(kPi) * x * std::exp(-x * x)) / (r * r * r)) * d;
-    u -= G * p.mass[j] * tail / r;
+    const double r2 = d.squaredNorm(), r = std::sqrt(r2), s = r2 * to_s;
+    const std::size_t k = static_cast<std::size_t>(s);
+    const double f = s - static_cast<double>(k);
+    const double w = w_table_[k] + f * (w_table_[k + 1] - w_table_[k]);
+    a += (G * p.mass[j] * w / (r2 * r)) * d;
+    if (phi) u -= G * p.mass[j] * (erfc_table_[k] + f * (erfc_table_[k + 1] - erfc_table_[k])) / r;
   }
   if (phi) *phi = u;
   return a;
@@ -293,8 +313,9 @@ Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi
 
 void SelfGravity::force(Simulation& sim) {
   if (sim.step_count % every_ != 0) return;
-  solve(sim);
+  solve(sim, false);
   ParticleStore& p = sim.particles;
+  const auto start = std::chrono::steady_clock::now();
   if (short_) index_pairs(p);
   const double weight = static_cast<double>(every_);  // the impulse of `every` steps
   const Simulation::TargetList T = sim.target_list();
@@ -303,13 +324,19 @@ void SelfGravity::force(Simulation& sim) {
     const Vec3 a = short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]);
     p.f[i] += weight * p.mass[i] * a;
   }
+  apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::ostringstream os;
-  os << "{\"solves\": " << solves_ << ", \"seconds\": " << solve_seconds_ << ", \"grid\": [" << nx_ << ", " << ny_
+  os << "{\"solves\": " << solves_ << ", \"mesh_seconds\": " << solve_seconds_
+     << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"grid\": [" << nx_ << ", " << ny_
      << ", " << nz_ << "], \"split\": " << eps_ << ", \"short_range\": " << (short_ ? "true" : "false") << "}";
   sim.set_result("self_gravity", os.str());
 }
 
+// Stress and energy bookkeeping (collective calls) solve the field at the present positions
+// first: between solves the particles have moved, perhaps into layers the last solve left out.
+// That does not change the run: force() solves again at its own steps.
 void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
+  const_cast<SelfGravity*>(this)->solve(sim, false);
   const ParticleStore& p = sim.particles;
   if (short_) index_pairs(p);
   for (std::size_t i = 0; i < p.nlocal; ++i)
@@ -317,6 +344,7 @@ void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) c
 }
 
 double SelfGravity::potential_energy(const Simulation& sim) const {
+  const_cast<SelfGravity*>(this)->solve(sim, false);
   const ParticleStore& p = sim.particles;
   if (short_) index_pairs(p);
   double u = 0;
