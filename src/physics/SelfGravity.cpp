@@ -1,6 +1,7 @@
 #include "physics/SelfGravity.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -58,6 +59,8 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
       sheared_(domain.shear.enabled),
       short_(cfg.self_gravity_short_range),
       reach_(cfg.self_gravity_reach()),
+      // at least r_s, and at most ~500 cells across the largest box side (with its halo)
+      cell_size_(std::max(reach_, (domain.length.maxCoeff() + 2 * cfg.halo_range()) / 500)),
       lx_(domain.length[0]),
       ly_(domain.length[1]),
       eps_(cfg.self_gravity_split),
@@ -113,8 +116,6 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
   real_ = fftw_alloc_real(nodes);
   spec_ = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
   for (auto*& o : out_) o = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
-  const int n[2] = {ny_, nx_};
-  const int rdist = nx_ * ny_, cdist = (nx_ / 2 + 1) * ny_;
   // One 2D transform per layer, run on the layers that matter (fftw_execute_dft_* on each).
   // FFTW_ESTIMATE | FFTW_UNALIGNED: the plan is a function of the sizes only and takes one code
   // path for any layer's address, the same on every rank and run.
@@ -284,25 +285,30 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// Cells anchored to the box (the same for every rank count), each cell's particles in id
+// order: the partners of a particle are then visited in an order (cell offset, then id) that
+// does not depend on the decomposition, and its sum rounds alike on any rank count.
 void SelfGravity::index_pairs(const ParticleStore& p) const {
   const std::size_t n = p.size();
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (std::size_t i = 0; i < n; ++i) {
-    lo = lo.cwiseMin(p.x[i]);
-    hi = hi.cwiseMax(p.x[i]);
-  }
-  cell_lo_ = lo;
+  std::vector<std::array<long, 3>> key(n);
+  std::array<long, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) {
+      key[i][d] = static_cast<long>(std::floor((p.x[i][d] - lo_[d]) / cell_size_));
+      lo[d] = i ? std::min(lo[d], key[i][d]) : key[i][d];
+      hi[d] = i ? std::max(hi[d], key[i][d]) : key[i][d];
+    }
   std::size_t total = 1;
   for (int d = 0; d < 3; ++d) {
-    cells_[d] = n ? std::clamp(static_cast<int>((hi[d] - lo[d]) / reach_) + 1, 1, 512) : 1;
+    cell_origin_[d] = lo[d];
+    cells_[d] = static_cast<int>(hi[d] - lo[d] + 1);
     total *= cells_[d];
   }
   std::vector<std::uint32_t> cell(n);
   cell_start_.assign(total + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    std::size_t c = 0;
-    for (int d = 2; d >= 0; --d)
-      c = c * cells_[d] + std::min(cells_[d] - 1, static_cast<int>((p.x[i][d] - lo[d]) / reach_));
+    const std::size_t c = (static_cast<std::size_t>(key[i][2] - lo[2]) * cells_[1] + (key[i][1] - lo[1])) * cells_[0] +
+                          (key[i][0] - lo[0]);
     cell[i] = static_cast<std::uint32_t>(c);
     ++cell_start_[c + 1];
   }
@@ -310,38 +316,35 @@ void SelfGravity::index_pairs(const ParticleStore& p) const {
   cell_items_.resize(n);
   std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
   for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell[i]]++] = static_cast<std::uint32_t>(i);
+  for (std::size_t c = 0; c < total; ++c)
+    std::sort(cell_items_.begin() + cell_start_[c], cell_items_.begin() + cell_start_[c + 1],
+              [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
 }
 
 Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi) const {
-  // Partners in id order: the sum's rounding is then that of any rank count.
-  partners_.clear();
   const Vec3& xi = p.x[i];
-  int c[3];
-  for (int d = 0; d < 3; ++d)
-    c[d] = std::min(cells_[d] - 1, static_cast<int>((xi[d] - cell_lo_[d]) / reach_));
-  const double r2max = reach_ * reach_;
-  for (int z = std::max(0, c[2] - 1); z <= std::min(cells_[2] - 1, c[2] + 1); ++z)
-    for (int y = std::max(0, c[1] - 1); y <= std::min(cells_[1] - 1, c[1] + 1); ++y)
-      for (int x = std::max(0, c[0] - 1); x <= std::min(cells_[0] - 1, c[0] + 1); ++x) {
-        const std::size_t cell = (static_cast<std::size_t>(z) * cells_[1] + y) * cells_[0] + x;
-        for (std::uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-          const std::uint32_t j = cell_items_[k];
-          if (j != i && (p.x[j] - xi).squaredNorm() < r2max) partners_.emplace_back(p.id[j], j);
-        }
-      }
-  std::sort(partners_.begin(), partners_.end());
-  const double G = kGravitationalConstant, to_s = kTable / r2max;
+  long c[3];
+  for (int d = 0; d < 3; ++d) c[d] = static_cast<long>(std::floor((xi[d] - lo_[d]) / cell_size_)) - cell_origin_[d];
+  const double r2max = reach_ * reach_, G = kGravitationalConstant, to_s = kTable / r2max;
   Vec3 a = Vec3::Zero();
   double u = 0;
-  for (const auto& [id, j] : partners_) {
-    const Vec3 d = p.x[j] - xi;
-    const double r2 = d.squaredNorm(), r = std::sqrt(r2), s = r2 * to_s;
-    const std::size_t k = static_cast<std::size_t>(s);
-    const double f = s - static_cast<double>(k);
-    const double w = w_table_[k] + f * (w_table_[k + 1] - w_table_[k]);
-    a += (G * p.mass[j] * w / (r2 * r)) * d;
-    if (phi) u -= G * p.mass[j] * (erfc_table_[k] + f * (erfc_table_[k + 1] - erfc_table_[k])) / r;
-  }
+  for (long z = std::max(0L, c[2] - 1); z <= std::min<long>(cells_[2] - 1, c[2] + 1); ++z)
+    for (long y = std::max(0L, c[1] - 1); y <= std::min<long>(cells_[1] - 1, c[1] + 1); ++y)
+      for (long x = std::max(0L, c[0] - 1); x <= std::min<long>(cells_[0] - 1, c[0] + 1); ++x) {
+        const std::size_t cell = (static_cast<std::size_t>(z) * cells_[1] + y) * cells_[0] + x;
+        for (std::uint32_t q = cell_start_[cell]; q < cell_start_[cell + 1]; ++q) {
+          const std::uint32_t j = cell_items_[q];
+          const Vec3 d = p.x[j] - xi;
+          const double r2 = d.squaredNorm();
+          if (j == i || r2 >= r2max) continue;
+          const double r = std::sqrt(r2), s = r2 * to_s;
+          const std::size_t k = static_cast<std::size_t>(s);
+          const double f = s - static_cast<double>(k);
+          const double w = w_table_[k] + f * (w_table_[k + 1] - w_table_[k]);
+          a += (G * p.mass[j] * w / (r2 * r)) * d;
+          if (phi) u -= G * p.mass[j] * (erfc_table_[k] + f * (erfc_table_[k + 1] - erfc_table_[k])) / r;
+        }
+      }
   if (phi) *phi = u;
   return a;
 }

@@ -19,7 +19,8 @@
 // which is 5e-7 of Newton's at r_s. Together: Newton's law between the particles' centres at
 // every distance (exact for non-overlapping spheres: no softening is needed), including
 // particles resting on each other in a wake. The halo is widened to r_s + skin for the pairs;
-// each particle sums its partners in id order (the same on any rank count). Without the short
+// each particle visits its partners in an order independent of the decomposition (cells
+// anchored to the box, ids within a cell), so the sum is the same on any rank count. Without the short
 // range (self_gravity.short_range = false) every particle is a Gaussian of width eps: cheaper,
 // right only on scales well above eps. A Gaussian sphere pulls as Newton's law outside a few
 // eps (a flat disc, as 2D-softened sheet codes use, would pull ~3 eps^2 / r^2 too hard).
@@ -95,12 +96,12 @@ class SelfGravity : public Module {
 
   int nx_, ny_, nz_;
   bool planar_, sheared_, short_;
-  double reach_;  // r_s
-  // Cells of r_s over the owned and ghost particles (index_pairs).
-  mutable Vec3 cell_lo_;
+  double reach_;      // r_s
+  double cell_size_;  // of the pair cells, >= r_s
+  // Cells over the owned and ghost particles (index_pairs).
+  mutable long cell_origin_[3] = {0, 0, 0};
   mutable int cells_[3] = {1, 1, 1};
   mutable std::vector<std::uint32_t> cell_start_, cell_items_;
-  mutable std::vector<std::pair<std::int64_t, std::uint32_t>> partners_;
   // The short-range law against s = r^2 / r_s^2 on a uniform table (linear interpolation: error
   // < 1e-6 of w for r > 0.1 r_s): w = erfc(x) + 2 x exp(-x^2) / sqrt(pi) and erfc(x).
   std::vector<double> w_table_, erfc_table_;
