@@ -89,10 +89,9 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
     const double kx = kPi / h_[0], ky = kPi / h_[1] + kx * 0.5 * lx_ / ly_;
     const double kmax = std::hypot(kx, ky) * 1.001;
     inv_dk_ = kTableK / kmax;
-    kphi_table_.resize(static_cast<std::size_t>(nz_) * (kTableK + 2));
-    az_table_.resize(kphi_table_.size());
-    for (int d = 0; d < nz_; ++d)
-      for (int i = 0; i <= kTableK + 1; ++i) {
+    kernel_table_.resize(static_cast<std::size_t>(kTableK + 2) * nz_ * 2);
+    for (int i = 0; i <= kTableK + 1; ++i)
+      for (int d = 0; d < nz_; ++d) {
         const double k = i / inv_dk_;
         double phi = 0, az = 0;
         if (i == 0) {  // the k -> 0 limits: k phi -> -2 pi G, a_z -> -2 pi G erf(d / (eps sqrt 2))
@@ -102,8 +101,8 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
           kernels(k, d * h_[2], phi, az);
           phi *= k;
         }
-        kphi_table_[d * (kTableK + 2) + i] = phi;
-        az_table_[d * (kTableK + 2) + i] = az;
+        kernel_table_[(static_cast<std::size_t>(i) * nz_ + d) * 2] = phi;
+        kernel_table_[(static_cast<std::size_t>(i) * nz_ + d) * 2 + 1] = az;
       }
   }
   const std::size_t nodes = static_cast<std::size_t>(nx_) * ny_ * nz_;
@@ -194,20 +193,29 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   for (std::size_t i = 0; i < p.nlocal; ++i) heaviest = std::max(heaviest, p.mass[i]);
   MPI_Allreduce(MPI_IN_PLACE, &heaviest, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
   const double unit = heaviest > 0 ? std::ldexp(heaviest, -40) : 1.0;
-  std::fill(mass_.begin(), mass_.end(), 0);
+  // The layers the particles touch (a ring fills a few): only those are deposited, reduced and
+  // transformed, and only those are sources (the same on every rank).
+  const std::size_t plane = static_cast<std::size_t>(nx_) * ny_;
+  int span[2] = {nz_, -nz_};  // min layer, -max layer
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Stencil s = stencil(p.x[i]);
+    span[0] = std::min(span[0], static_cast<int>(s.node[0] / plane));
+    span[1] = std::min(span[1], -static_cast<int>(s.node[s.n - 1] / plane));
+  }
+  MPI_Allreduce(MPI_IN_PLACE, span, 2, MPI_INT, MPI_MIN, sim.domain.comm);
+  const int zlo = std::min(span[0], nz_ - 1), zhi = std::min(nz_ - 1, std::max(-span[1], zlo));
+  const std::size_t from = zlo * plane, count = (zhi - zlo + 1) * plane;
+  std::fill(mass_.begin() + from, mass_.begin() + from + count, 0);
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (!planar_ && (p.x[i][2] < lo_[2] || p.x[i][2] > lo_[2] + nz_ * h_[2])) ++outside_;
     const Stencil s = stencil(p.x[i]);
     for (int q = 0; q < s.n; ++q) mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
   }
-  MPI_Allreduce(MPI_IN_PLACE, mass_.data(), static_cast<int>(mass_.size()), MPI_INT64_T, MPI_SUM, sim.domain.comm);
+  MPI_Allreduce(MPI_IN_PLACE, mass_.data() + from, static_cast<int>(count), MPI_INT64_T, MPI_SUM, sim.domain.comm);
   const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
-  for (std::size_t g = 0; g < mass_.size(); ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
-  // A ring fills a few of the layers: only those are sources (the same list on every rank), and
-  // the particles (where force() interpolates) sit in them.
+  for (std::size_t g = from; g < from + count; ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
   std::vector<int> sources;
-  const std::size_t plane = static_cast<std::size_t>(nx_) * ny_;
-  for (int b = 0; b < nz_; ++b)
+  for (int b = zlo; b <= zhi; ++b)
     if (std::any_of(mass_.begin() + b * plane, mass_.begin() + (b + 1) * plane, [](std::int64_t q) { return q != 0; }))
       sources.push_back(b);
   const int mx = nx_ / 2 + 1;
@@ -223,52 +231,67 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   int reach = 0;  // the largest layer distance from a source to a computed layer
   if (!sources.empty()) reach = std::max(last - sources.front(), sources.back() - first);
 
-  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
+  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out. One
+  // row of modes (fixed n) at a time, so every layer's modes are read and written in
+  // contiguous runs; the kernels of the row (per mode and layer distance) stay in cache.
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
-  std::vector<double> P(nz_), Z(nz_);  // potential and a_z kernels at layer offset d = +|a - b| h_z
+  const int R = reach + 1;
+  std::vector<double> P(static_cast<std::size_t>(mx) * R), Z(P.size()), KX(mx), KY(mx);
+  std::vector<std::complex<double>> phi(mx), az(mx);
   const std::complex<double> I(0, 1);
   for (int j = 0; j < ny_; ++j) {
     const int n = j <= ny_ / 2 ? j : j - ny_;
     for (int m = 0; m < mx; ++m) {
-      const std::size_t c = static_cast<std::size_t>(j) * mx + m;
+      double* p = &P[static_cast<std::size_t>(m) * R];
+      double* z = &Z[static_cast<std::size_t>(m) * R];
+      KX[m] = 2 * kPi * m / lx_;
+      KY[m] = 2 * kPi * n / ly_ - KX[m] * shear_ / ly_;
       if (m == nx_ / 2 || j == ny_ / 2) {  // Nyquist: no odd derivative there
-        for (int k = first; k <= last; ++k)
-          for (auto* o : out_) o[k * cplane + c] = 0;
+        std::fill(p, p + R, 0.0);
+        std::fill(z, z + R, 0.0);
         continue;
       }
-      const double kx = 2 * kPi * m / lx_, ky = 2 * kPi * n / ly_ - kx * shear_ / ly_;
       // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
       const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
       const double scale = norm / (w * w);
-      const double k = std::hypot(kx, ky);
+      const double k = std::hypot(KX[m], KY[m]);
       if (k == 0) {
-        for (int d = 0; d <= reach; ++d) {
-          kernels(0.0, d * h_[2], P[d], Z[d]);
-          P[d] *= scale;
-          Z[d] *= scale;
+        for (int d = 0; d < R; ++d) {
+          kernels(0.0, d * h_[2], p[d], z[d]);
+          p[d] *= scale;
+          z[d] *= scale;
         }
       } else {  // from the tables: k phi and a_z are smooth in k at every layer distance
         const double t = k * inv_dk_;
         const std::size_t i = static_cast<std::size_t>(t);
         const double f = t - static_cast<double>(i);
-        for (int d = 0; d <= reach; ++d) {
-          const double* kp = &kphi_table_[d * (kTableK + 2)];
-          const double* az = &az_table_[d * (kTableK + 2)];
-          P[d] = (kp[i] + f * (kp[i + 1] - kp[i])) / k * scale;
-          Z[d] = (az[i] + f * (az[i + 1] - az[i])) * scale;
+        const double* lo = &kernel_table_[i * nz_ * 2];
+        const double* hi = lo + nz_ * 2;
+        for (int d = 0; d < R; ++d) {
+          p[d] = (lo[2 * d] + f * (hi[2 * d] - lo[2 * d])) / k * scale;
+          z[d] = (lo[2 * d + 1] + f * (hi[2 * d + 1] - lo[2 * d + 1])) * scale;
         }
       }
-      for (int a = first; a <= last; ++a) {
-        std::complex<double> phi = 0, az = 0;
-        for (const int b : sources) {
-          const std::complex<double> s = spec_[b * cplane + c];
-          phi += P[std::abs(a - b)] * s;
-          az += (a >= b ? Z[a - b] : -Z[b - a]) * s;
+    }
+    const std::size_t row = static_cast<std::size_t>(j) * mx;
+    for (int a = first; a <= last; ++a) {
+      std::fill(phi.begin(), phi.end(), 0.0);
+      std::fill(az.begin(), az.end(), 0.0);
+      for (const int b : sources) {
+        const std::complex<double>* s = spec_ + b * cplane + row;
+        const int d = std::abs(a - b);
+        const double sign = a >= b ? 1.0 : -1.0;
+        for (int m = 0; m < mx; ++m) {
+          phi[m] += P[static_cast<std::size_t>(m) * R + d] * s[m];
+          az[m] += sign * Z[static_cast<std::size_t>(m) * R + d] * s[m];
         }
-        out_[0][a * cplane + c] = -I * kx * phi;
-        out_[1][a * cplane + c] = -I * ky * phi;
-        out_[2][a * cplane + c] = az;
-        out_[3][a * cplane + c] = phi;
+      }
+      const std::size_t at = a * cplane + row;
+      for (int m = 0; m < mx; ++m) {
+        out_[0][at + m] = -I * KX[m] * phi[m];
+        out_[1][at + m] = -I * KY[m] * phi[m];
+        out_[2][at + m] = az[m];
+        out_[3][at + m] = phi[m];
       }
     }
   }

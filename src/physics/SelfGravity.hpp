@@ -105,8 +105,8 @@ class SelfGravity : public Module {
   // The short-range law against s = r^2 / r_s^2 on a uniform table (linear interpolation: error
   // < 1e-6 of w for r > 0.1 r_s): w = erfc(x) + 2 x exp(-x^2) / sqrt(pi) and erfc(x).
   std::vector<double> w_table_, erfc_table_;
-  // The mesh kernels k phi and a_z per layer distance against |k| (uniform in k).
-  std::vector<double> kphi_table_, az_table_;
+  // The mesh kernels against |k| (uniform in k): [k][layer distance][k phi, a_z].
+  std::vector<double> kernel_table_;
   double inv_dk_ = 1;
   double lx_, ly_, lo_[3], h_[3];
   double eps_;
