@@ -2,11 +2,15 @@
 """Cost of self-gravity against N: cases/gravity-wakes scaled up (box side L, N ~ L^2, the mesh
 refined with it so the spacing stays 3.1 m), a short run each, one rank.
 
-  scripts/gravity_cost.py [--sides 200,400,800] [--orbits 0.05] [--ranks 1] [--mesh-only]
+  scripts/gravity_cost.py [--sides 200,400,800] [--orbits 0.05] [--ranks 1[,2,4,...]] [--mesh-only]
 
-Prints, per N: wall seconds per step, the mesh solve's and the pairs' (interpolation and short
-range) shares, and particle-steps per second. The mesh solve is O(G log G) on G grid nodes plus
-O(N) deposit and interpolation; the pairs are O(N) at fixed surface density.
+Prints, per N and rank count: wall seconds per step, the mesh solve's and the pairs'
+(interpolation and short range) shares, particle-steps per second, and the communication
+volumes per step summed over ranks: halo bytes and messages (ghost updates, ghost builds,
+migration) and the mesh deposit's all-reduce payload per solve and rank. The mesh solve is
+O(G log G) on G grid nodes plus O(N) deposit and interpolation; the pairs are O(N) at fixed
+surface density. Rank counts above the cores are oversubscribed: their volumes are real, their
+times are not.
 """
 import argparse, json, os, subprocess, tempfile
 
@@ -17,13 +21,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sides", default="200,400,800")
     ap.add_argument("--orbits", type=float, default=0.05)
-    ap.add_argument("--ranks", type=int, default=1)
+    ap.add_argument("--ranks", default="1", help="comma-separated rank counts")
     ap.add_argument("--mesh-only", action="store_true", help="self_gravity.short_range = false")
     a = ap.parse_args()
     exe = os.environ.get("CASSINI", os.path.join(ROOT, "build/cassini"))
     T0 = 2 * 3.141592653589793 / 1.3144e-4
-    print(f"{'L m':>6} {'N':>8} {'grid':>14} {'s/step':>9} {'mesh %':>7} {'pairs %':>8} {'particle-steps/s':>17}")
-    for L in [float(x) for x in a.sides.split(",")]:
+    print(f"{'L m':>6} {'N':>8} {'grid':>14} {'ranks':>5} {'s/step':>9} {'mesh %':>7} {'pairs %':>8} "
+          f"{'particle-steps/s':>17} {'halo B/step':>12} {'msgs/step':>9} {'reduce B/solve':>14}")
+    for L, ranks in [(float(x), int(r)) for x in a.sides.split(",") for r in a.ranks.split(",")]:
         n = round(1492 * (L / 200) ** 2)
         g = round(64 * L / 200)
         over = [f"domain.lo=[{-L / 2}, {-L / 2}, -50.0]", f"domain.hi=[{L / 2}, {L / 2}, 50.0]", f"particles.count={n}",
@@ -32,16 +37,18 @@ def main():
             over.append("self_gravity.short_range=false")
         with tempfile.TemporaryDirectory() as tmp:
             cmd = [exe, os.path.join(ROOT, "cases/gravity-wakes"), "--out", tmp + "/run"]
-            if a.ranks > 1:
-                cmd = [os.path.join(ROOT, "scripts/mpirun"), "-n", str(a.ranks)] + cmd
+            if ranks > 1:
+                cmd = [os.path.join(ROOT, "scripts/mpirun"), "-n", str(ranks)] + cmd
             for o in over:
                 cmd += ["--set", o]
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
             with open(tmp + "/run/summary.json") as f:
                 s = json.load(f)
         wall, steps, sg = s["wall_seconds"], s["steps"], s["self_gravity"]
-        print(f"{L:6.0f} {n:8d} {str(sg['grid']):>14} {wall / steps:9.2e} {100 * sg['mesh_seconds'] / wall:7.1f} "
-              f"{100 * sg['interpolation_and_pairs_seconds'] / wall:8.1f} {s['particle_steps_per_second']:17.3e}", flush=True)
+        print(f"{L:6.0f} {n:8d} {str(sg['grid']):>14} {ranks:5d} {wall / steps:9.2e} {100 * sg['mesh_seconds'] / wall:7.1f} "
+              f"{100 * sg['interpolation_and_pairs_seconds'] / wall:8.1f} {s['particle_steps_per_second']:17.3e} "
+              f"{s['halo_bytes_per_step']:12.3e} {s['halo_messages_per_step']:9.2f} "
+              f"{sg['allreduce_bytes'] / sg['solves']:14.3e}", flush=True)
 
 
 if __name__ == "__main__":

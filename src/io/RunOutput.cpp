@@ -265,6 +265,9 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   MPI_Reduce(t.data(), tmin.data(), ns, MPI_DOUBLE, MPI_MIN, 0, comm_);
   MPI_Reduce(t.data(), tmax.data(), ns, MPI_DOUBLE, MPI_MAX, 0, comm_);
   MPI_Reduce(t.data(), tsum.data(), ns, MPI_DOUBLE, MPI_SUM, 0, comm_);
+  // Halo traffic over all ranks (bytes and messages to other ranks), per step.
+  std::int64_t traffic[2] = {sim.halo.bytes_sent, sim.halo.messages_sent}, traffic_sum[2] = {0, 0};
+  MPI_Reduce(traffic, traffic_sum, 2, MPI_INT64_T, MPI_SUM, 0, comm_);
   if (rank_ != 0) return;
   auto stage_name = [](int k) { return k < StageTimers::kStages ? StageTimers::names[k] : "other"; };
   std::ostringstream table;
@@ -297,7 +300,9 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
      << "  \"particle_steps_per_second\": " << num(wall > 0 ? double(n) * steps / wall : 0.0) << ",\n"
      << "  \"particle_steps_per_second_per_rank\": [";
   for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << num(rates[r]);
-  js << "],\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
+  js << "],\n  \"halo_bytes_per_step\": " << num(steps > 0 ? double(traffic_sum[0]) / steps : 0.0)
+     << ",\n  \"halo_messages_per_step\": " << num(steps > 0 ? double(traffic_sum[1]) / steps : 0.0);
+  js << ",\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
   for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << num(sim.domain.cuts[r]);
   js << "],\n  \"decomposition\": " << json_string(sim.cfg.decomposition);
   js << ",\n  \"imbalance_at_last_balancing\": " << num(sim.imbalance);

@@ -41,6 +41,10 @@ void HaloExchange::exchange(std::vector<std::vector<double>>& out, std::vector<d
     scount[r] = static_cast<int>(out[r].size());
     sdispl[r] = static_cast<int>(sendbuf.size());
     sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
+    if (r != dom_.rank && scount[r] > 0) {
+      bytes_sent += static_cast<std::int64_t>(scount[r]) * static_cast<std::int64_t>(sizeof(double));
+      ++messages_sent;
+    }
   }
   if (known) rcount = *known;
   else MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, dom_.comm);

@@ -52,6 +52,9 @@ class HaloExchange {
   // bead: LE1 particles across a y face of the corner the clone enters by could not see its
   // original (Simulation::rebuild removes them once the new neighbour list shows the overlap).
   std::int64_t stillborn = 0;
+  // Traffic to other ranks since the run started (ghost updates, ghost builds, migration):
+  // bytes and non-empty messages, for docs/scaling.md's model.
+  std::int64_t bytes_sent = 0, messages_sent = 0;
 
  private:
   struct Image {

@@ -212,6 +212,7 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
     for (int q = 0; q < s.n; ++q) mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
   }
   MPI_Allreduce(MPI_IN_PLACE, mass_.data() + from, static_cast<int>(count), MPI_INT64_T, MPI_SUM, sim.domain.comm);
+  reduced_bytes_ += static_cast<double>(count) * sizeof(std::int64_t);
   const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
   for (std::size_t g = from; g < from + count; ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
   std::vector<int> sources;
@@ -388,7 +389,8 @@ void SelfGravity::force(Simulation& sim) {
   apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::ostringstream os;
   os << "{\"solves\": " << solves_ << ", \"mesh_seconds\": " << solve_seconds_
-     << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"grid\": [" << nx_ << ", " << ny_
+     << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"allreduce_bytes\": " << reduced_bytes_
+     << ", \"grid\": [" << nx_ << ", " << ny_
      << ", " << nz_ << "], \"split\": " << eps_ << ", \"short_range\": " << (short_ ? "true" : "false") << "}";
   sim.set_result("self_gravity", os.str());
 }

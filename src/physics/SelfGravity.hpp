@@ -123,6 +123,7 @@ class SelfGravity : public Module {
   void* backward_ = nullptr;
   long solves_ = 0, outside_ = 0;
   double solve_seconds_ = 0, apply_seconds_ = 0;  // mesh solves; interpolation and short range
+  double reduced_bytes_ = 0;  // the mesh deposit's all-reduce payload, per rank, since the run started
 };
 
 }  // namespace cassini
