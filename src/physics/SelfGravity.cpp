@@ -381,11 +381,20 @@ void SelfGravity::force(Simulation& sim) {
   if (short_) index_pairs(p);
   const double weight = static_cast<double>(every_);  // the impulse of `every` steps
   const Simulation::TargetList T = sim.target_list();
+  // Kept for the bookkeeping later in this step (the energy guard, a snapshot's body forces):
+  // the positions do not change before the step ends.
+  cached_accel_.assign(p.nlocal, Vec3::Zero());
+  double u = 0;
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
-    const Vec3 a = short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]);
+    double near = 0;
+    const Vec3 a = short_ ? Vec3(field(p.x[i]) + short_range(p, i, &near)) : field(p.x[i]);
     p.f[i] += weight * p.mass[i] * a;
+    cached_accel_[i] = a;
+    u += 0.5 * p.mass[i] * (potential(p.x[i]) + near);
   }
+  cached_potential_ = u;
+  cached_step_ = sim.all_targets ? sim.step_count : -1;
   apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::ostringstream os;
   os << "{\"solves\": " << solves_ << ", \"mesh_seconds\": " << solve_seconds_
@@ -399,14 +408,19 @@ void SelfGravity::force(Simulation& sim) {
 // first: between solves the particles have moved, perhaps into layers the last solve left out.
 // That does not change the run: force() solves again at its own steps.
 void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
-  const_cast<SelfGravity*>(this)->solve(sim, false);
   const ParticleStore& p = sim.particles;
+  if (cached_step_ == sim.step_count) {  // force() solved at these very positions
+    for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * cached_accel_[i];
+    return;
+  }
+  const_cast<SelfGravity*>(this)->solve(sim, false);
   if (short_) index_pairs(p);
   for (std::size_t i = 0; i < p.nlocal; ++i)
     F[i] += p.mass[i] * (short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]));
 }
 
 double SelfGravity::potential_energy(const Simulation& sim) const {
+  if (cached_step_ == sim.step_count) return cached_potential_;
   const_cast<SelfGravity*>(this)->solve(sim, false);
   const ParticleStore& p = sim.particles;
   if (short_) index_pairs(p);

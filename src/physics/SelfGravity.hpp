@@ -62,7 +62,9 @@ class SelfGravity : public Module {
   SelfGravity(const SelfGravity&) = delete;
   SelfGravity& operator=(const SelfGravity&) = delete;
   std::string name() const override { return "self-gravity"; }
-  unsigned stages() const override { return kForce; }
+  unsigned stages() const override { return kForce | kRebuild; }
+  // A rebuild reorders the particles: the values kept from the last solve no longer apply.
+  void pre_rebuild(Simulation&) override { cached_step_ = -1; }
   void force(Simulation& sim) override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
   // 1/2 sum m phi over the owned particles.
@@ -123,7 +125,12 @@ class SelfGravity : public Module {
   void* backward_ = nullptr;
   long solves_ = 0, outside_ = 0;
   double solve_seconds_ = 0, apply_seconds_ = 0;  // mesh solves; interpolation and short range
-  double reduced_bytes_ = 0;  // the mesh deposit's all-reduce payload, per rank, since the run started
+  double reduced_bytes_ = 0;
+  // The last force() solve's accelerations (per owned particle) and potential energy, valid
+  // until the step ends or a rebuild reorders the particles.
+  long cached_step_ = -1;
+  std::vector<Vec3> cached_accel_;
+  double cached_potential_ = 0;  // the mesh deposit's all-reduce payload, per rank, since the run started
 };
 
 }  // namespace cassini
