@@ -207,7 +207,6 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   const std::size_t from = zlo * plane, count = (zhi - zlo + 1) * plane;
   std::fill(mass_.begin() + from, mass_.begin() + from + count, 0);
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (!planar_ && (p.x[i][2] < lo_[2] || p.x[i][2] > lo_[2] + nz_ * h_[2])) ++outside_;
     const Stencil s = stencil(p.x[i]);
     for (int q = 0; q < s.n; ++q) mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
   }

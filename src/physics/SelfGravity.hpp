@@ -84,7 +84,6 @@ class SelfGravity : public Module {
 
   long solves() const { return solves_; }
   double solve_seconds() const { return solve_seconds_; }
-  long outside() const { return outside_; }  // owned particles found beyond the grid's z range
 
  private:
   struct Stencil {  // cloud-in-cell: 2 x 2 (x 2) nodes and weights
@@ -123,7 +122,7 @@ class SelfGravity : public Module {
   std::complex<double>* out_[4] = {};      // a_x, a_y, a_z, phi per layer
   void* forward_ = nullptr;
   void* backward_ = nullptr;
-  long solves_ = 0, outside_ = 0;
+  long solves_ = 0;
   double solve_seconds_ = 0, apply_seconds_ = 0;  // mesh solves; interpolation and short range
   double reduced_bytes_ = 0;
   // The last force() solve's accelerations (per owned particle) and potential energy, valid
