@@ -153,8 +153,8 @@ struct Config {
   bool hertz() const;                           // some pair follows Hertz-Mindlin
   bool rolling() const;                         // some pair resists rolling or twisting
   double max_radius() const;
-  // Largest centre distance at which two particles interact, plus the skin: the neighbour
-  // list's and the halo's range.
+  // Largest centre distance at which two particles touch (or lubricate), plus the skin: the
+  // neighbour list's range, and the halo's unless halo_range() is wider.
   double pair_range() const { return 2 * max_radius() + lubrication_reach + skin; }
   // The ghost halo's width: the pair range, or wider for the short range of self-gravity.
   double halo_range() const { return std::max(pair_range(), self_gravity_reach() + skin); }

@@ -21,6 +21,7 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   dt = cfg.dt;
   skin = cfg.skin;
   range = cfg.pair_range();  // largest a_i + a_j (+ lubrication reach) + skin
+  halo_range = cfg.halo_range();
   particles.rotation = cfg.friction();
   particles.impacts = cfg.velocity_dependent_restitution();
   particles.rolling = cfg.rolling();
@@ -233,7 +234,7 @@ void Simulation::step() {
   }
   if (global[1] > 0) check_guards();
   // The halo may reach further than the pair range (self-gravity's pairs): its ghosts must stay valid too.
-  const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * std::max(range, cfg.halo_range());
+  const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * halo_range;
   rebuilt_this_step = approach > skin;
   if (rebuilt_this_step) {
     rebuild();

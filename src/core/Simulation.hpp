@@ -96,6 +96,7 @@ class Simulation {
   double dt = 0, time = 0;
   long step_count = 0;
   double range = 0, skin = 0;
+  double halo_range = 0;  // >= range: the ghosts' reach (Config::halo_range)
   long rebuilds = 0;
   StageTimers timers;  // this rank's wall time per stage of the step
   double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
