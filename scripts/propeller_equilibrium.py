@@ -77,9 +77,13 @@ def simulate(r):
         cmd += ["--set", s]
     t = time.time()
     with open(d + ".log", "w") as log:
-        subprocess.run(cmd, check=True, stdout=log, stderr=subprocess.STDOUT)
+        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
     cpu = time.time() - t
-    print(f"{r['name']}: {cpu:.0f} s", flush=True)
+    # A guard stop (exit 3: e.g. a ring heated beyond what t_c allows) is a result: its windows
+    # up to the stop are analysed. Anything else is a failure of the study.
+    if code not in (0, 3):
+        raise RuntimeError(f"{r['name']}: cassini exited with {code}; see {d}.log")
+    print(f"{r['name']}: {cpu:.0f} s{' (stopped by a guard: see its log)' if code == 3 else ''}", flush=True)
     return cpu
 
 
@@ -102,8 +106,11 @@ def dispersions(snap):
 def analyse(r):
     d = os.path.join(a.out, r["name"])
     rows = []
+    last = max(float(h5py.File(s)["parameters/time_offset_dt"][0]) for s in glob.glob(os.path.join(d, "snap_*.h5md")))
     for k in range(1, 2 * a.orbits + 1):
         end = k * T0 / 2
+        if end > last + 1:  # a run a guard stopped early has no later windows
+            break
         res = os.path.join(d, f"criteria_{k:02d}")
         if not os.path.exists(os.path.join(res, "criteria.json")):
             subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "scripts", "propeller_analysis.py"), d, "--end", str(end),
