@@ -408,6 +408,49 @@ end = 1.0
   EXPECT_NEAR(sim->particles.v[i][2], 0.0, 1e-6) << "no bouncing";
 }
 
+TEST(ContactLaw, WallFrictionIsTheSpeciesOwn) {
+  // wall_mu_s / wall_mu_d set the friction against walls apart from the particles' mu: a sphere
+  // sliding on the floor decelerates at wall_mu g (v = v0 - wall_mu g t until t* = 2 v0 /
+  // (7 wall_mu g)), whatever its mu against other particles; with wall_mu = 0 it keeps v0 and
+  // never spins although mu = 0.5.
+  auto run = [](const std::string& mu, const std::string& wall_mu, double t) {
+    const std::string text = R"(
+modules = ["contact", "gravity"]
+[domain]
+lo = [-1.0, -0.05, 0.0]
+hi = [1.0, 0.05, 0.1]
+boundary = ["periodic", "periodic", "wall"]
+[[species]]
+density = 2500.0
+radius = 0.005
+t_c = 1.0e-4
+e = 0.5
+mu_s = )" + mu + "\nwall_mu_s = " + wall_mu + R"(
+[particles]
+init = "none"
+[gravity]
+g = [0.0, 0.0, -9.81]
+[time]
+end = 1.0
+)";
+    auto sim = make_sim(text.c_str());
+    const double a = 0.005, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+    const double tc = 1e-4, eta = -std::log(0.5) / tc, w = std::numbers::pi / tc;
+    sim->particles.add(0, 0, a, m, Vec3(0, 0, a - 9.81 / (w * w + eta * eta)), Vec3(0.5, 0, 0));
+    sim->setup();
+    while (sim->time < t) sim->step();
+    const long i = local_index(*sim, 0);
+    return std::pair{sim->particles.v[i][0], sim->particles.omega[i][1]};
+  };
+  const double v0 = 0.5, mu_w = 0.2, t_star = 2 * v0 / (7 * mu_w * 9.81), t = 0.5 * t_star;
+  const auto [v, spin] = run("0.0", "0.2", t);
+  EXPECT_NEAR((v0 - v) / (mu_w * 9.81 * t), 1.0, 5e-3) << "sliding deceleration wall_mu g with frictionless particles";
+  EXPECT_GT(spin, 0.0);
+  const auto [v1, spin1] = run("0.5", "0.0", t);
+  EXPECT_NEAR(v1, v0, 1e-9) << "a frictionless wall does not slow a frictional particle";
+  EXPECT_EQ(spin1, 0.0);
+}
+
 namespace {
 // Bridges et al. (1984), written out here independently of the code: e = (u / v_c)^-0.234,
 // capped at 1 for impacts slower than v_c.

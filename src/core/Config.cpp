@@ -9,7 +9,7 @@
 namespace cassini {
 
 bool Config::friction() const {
-  return std::any_of(species.begin(), species.end(), [](const Species& s) { return s.mu_s > 0; }) ||
+  return std::any_of(species.begin(), species.end(), [](const Species& s) { return s.mu_s > 0 || s.wall_mu_s > 0; }) ||
          std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.mu_s > 0; });
 }
 
@@ -187,9 +187,14 @@ Config read_config(CaseFile& f) {
     if ((s.mu_r > 0 || s.mu_o > 0) && !(s.mu_s > 0))
       f.fail(p + (s.mu_r > 0 ? "mu_r" : "mu_o"), "rolling or twisting resistance only with sliding friction (mu_s > 0)");
     if (s.mu_d > s.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
+    // Walls may be slipperier or rougher than the particles (glass channel, coated beads).
+    const bool own_wall = f.has(p + "wall_mu_s");
+    s.wall_mu_s = non_negative(f, p + "wall_mu_s", s.mu_s);
+    s.wall_mu_d = non_negative(f, p + "wall_mu_d", own_wall ? s.wall_mu_s : s.mu_d);
+    if (s.wall_mu_d > s.wall_mu_s) f.fail(p + "wall_mu_d", "a dynamic friction <= wall_mu_s");
     s.kt_ratio = non_negative(f, p + "kt_ratio", 2.0 / 7.0);
     s.gammat_ratio = non_negative(f, p + "gammat_ratio", 2.0 / 7.0);
-    if (s.mu_s > 0 && !(s.kt_ratio > 0))  // a sliding spring is stretched to mu_d f_n / k_t
+    if ((s.mu_s > 0 || s.wall_mu_s > 0) && !(s.kt_ratio > 0))  // a sliding spring is stretched to mu_d f_n / k_t
       f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 when the species has friction (mu_s > 0)");
     if (s.youngs_modulus > 0) {
       if (s.v_c > 0) f.fail(p + "restitution", "\"constant\" with model = \"hertz\"");

@@ -33,6 +33,7 @@ struct Species {
   // (impact_speed) between two of the smallest particles, which sets the time step.
   double youngs_modulus = 0, poisson_ratio = 0, impact_speed = 0;
   double mu_s = 0, mu_d = 0;              // Coulomb static and dynamic friction
+  double wall_mu_s = 0, wall_mu_d = 0;    // against walls and the moonlet (default: mu_s, mu_d)
   // Rolling and twisting resistance (elastic-plastic spring-dashpot, LinearSpringDashpot::
   // rolling): limit torques mu_r R* f_n and mu_o R* f_n, damping ratio eta_r; needs mu_s > 0.
   double mu_r = 0, mu_o = 0, eta_r = 0.3;

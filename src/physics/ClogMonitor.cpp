@@ -1,5 +1,6 @@
 #include "physics/ClogMonitor.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -34,6 +35,7 @@ void ClogMonitor::setup(Simulation& sim) {
   if (sim.restart_value("clog.avalanche_start", v)) avalanche_start_ = std::lround(v);
   if (sim.restart_value("clog.resumed_at", v)) resumed_at_ = v;
   if (sim.restart_value("clog.removed", v)) removed_ = std::lround(v);
+  if (sim.restart_value("clog.longest_pause", v)) longest_pause_ = v;
   if (sim.restart_value("clog.backflush_until", v) && v >= 0) {
     backflush_until_ = v;
     sim.find<StokesDrag>()->set_flow_sign(-1);
@@ -57,7 +59,7 @@ void ClogMonitor::save_state(std::vector<std::pair<std::string, double>>& out) c
                          {"clog.front_time", front_time_}, {"clog.escaped_at_front", double(escaped_at_front_)},
                          {"clog.avalanche_start", double(avalanche_start_)}, {"clog.resumed_at", resumed_at_},
                          {"clog.removed", double(removed_)}, {"clog.avalanches", double(sizes_.size())},
-                         {"clog.backflush_until", backflush_until_}});
+                         {"clog.backflush_until", backflush_until_}, {"clog.longest_pause", longest_pause_}});
   for (std::size_t k = 0; k < sizes_.size(); ++k) {
     out.emplace_back("clog.avalanche." + std::to_string(k), double(sizes_[k]));
     out.emplace_back("clog.avalanche_start." + std::to_string(k), starts_[k]);
@@ -100,6 +102,8 @@ void ClogMonitor::check(Simulation& sim) {
     resumed_at_ = sim.time;
   }
   if (global[0] != escaped_ || global[1] != in_neck_) {
+    // A standstill at an occupied neck that ends: how close it came to counting as a clog.
+    if (!resuming && in_neck_ > 0) longest_pause_ = std::max(longest_pause_, sim.time - last_change_);
     escaped_ = global[0];
     in_neck_ = global[1];
     last_change_ = sim.time;
@@ -191,6 +195,7 @@ void ClogMonitor::publish(Simulation& sim) const {
   sim.set_result("escapees", std::to_string(escaped_));
   sim.set_result("clog_time", clogged_ ? std::to_string(last_change_) : "null");
   sim.set_result("particles_in_neck", std::to_string(in_neck_));
+  sim.set_result("longest_pause", std::to_string(longest_pause_));
 }
 
 }  // namespace cassini

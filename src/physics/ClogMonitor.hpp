@@ -28,6 +28,12 @@
 // window. When every particle has been slower than clog.rest_speed for 1 % of the window
 // (many relaxation and contact times) the run ends as clogged with the same clog time the
 // full window would give. Typically a third of the window is skipped.
+//
+// The window's cost: every clog is confirmed by clog.window seconds of a packed pile, most of a
+// run's contacts. longest_pause (summary.json, the ensemble CSV) is the longest standstill at
+// the neck that ended in a passage. Any window longer than every such pause in an ensemble gives
+// the same s and clog time, run by run (a standstill that is followed by no passage is the clog);
+// scripts/clog-window reads it off an ensemble.
 #include "core/Module.hpp"
 
 namespace cassini {
@@ -46,6 +52,7 @@ class ClogMonitor : public Module {
   double clog_time() const { return last_change_; }
   const std::vector<long>& avalanches() const { return sizes_; }
   double front_time() const { return front_time_; }
+  double longest_pause() const { return longest_pause_; }
   long removed() const { return removed_; }
   void save_state(std::vector<std::pair<std::string, double>>& out) const override;
 
@@ -60,6 +67,7 @@ class ClogMonitor : public Module {
   double rest_since_ = -1;  // time since which everything has been at rest (-1: moving)
   const class Inlet* inlet_ = nullptr;
   double last_change_ = 0;
+  double longest_pause_ = 0;  // the longest standstill at an occupied neck that ended in a change
   bool clogged_ = false;
   double zone_lo_ = 0, zone_hi_ = 0, zone_volume_ = 0;  // the approach zone
   double front_time_ = -1;

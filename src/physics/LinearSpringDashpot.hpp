@@ -167,6 +167,12 @@ class LinearSpringDashpot {
         hertz_ = hertz_ || q.e_star > 0;
       }
     velocity_dependent_ = cfg.velocity_dependent_restitution();
+    // Against walls: the species' own law with its wall friction.
+    for (int a = 0; a < n_; ++a) {
+      wall_table_.push_back(table_[a * n_ + a]);
+      wall_table_.back().mu_s = cfg.species[a].wall_mu_s;
+      wall_table_.back().mu_d = cfg.species[a].wall_mu_d;
+    }
   }
 
   // The damping rate eta (and what follows from it at fixed t_c) of a law; half =
@@ -360,12 +366,14 @@ class LinearSpringDashpot {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
     const int sp = p.species[i];
-    const PairLaw* L = &law(sp, sp);
+    const PairLaw* L = &wall_table_[sp];
     PairLaw own;
     if (L->v_c > 0) {
       double u = impact ? *impact : 0.0;
       if (u == 0 && delta > 0) u = std::max(-vrel.dot(n), 0.0);  // this contact's impact
       own = at_impact(sp, sp, u);
+      own.mu_s = L->mu_s;
+      own.mu_d = L->mu_d;
       L = &own;
       if (impact && advance) *impact = delta > 0 ? u : 0.0;
     }
@@ -389,6 +397,7 @@ class LinearSpringDashpot {
   bool clip_ = false, friction_ = false, exact_ = true;
   bool velocity_dependent_ = false, hertz_ = false, rolling_ = false;
   std::vector<PairLaw> table_;
+  std::vector<PairLaw> wall_table_;  // per species: its own law, with its wall friction
   std::vector<double> half_ = std::vector<double>(n_ * n_);  // sin(omega dt / 2) per pair
 };
 
