@@ -315,6 +315,36 @@ TEST(ClogMonitor, EndingAtRestGivesTheFullWindowsResult) {
   EXPECT_LT(early->time, full->time - 0.1);                // and the rest end saved real time
 }
 
+TEST(ClogMonitor, AnyWindowLongerThanTheLongestBrokenStandstillGivesTheSameClog) {
+  // longest_pause is the longest standstill at the neck that a passage ended. A window longer
+  // than it ends the run at the same clog, with the same s and clog time (to the checks'
+  // interval, window / 1000, which differs between the windows); a window shorter than
+  // it calls that standstill (or an earlier one) a clog: an earlier clog time and no more
+  // escapees.
+  auto run = [](double window) {
+    auto sim = make_sim(channel_case(), {"clog.window=" + std::to_string(window), "time.end=8.0"});
+    sim->setup();
+    sim->run();
+    const auto* c = sim->find<ClogMonitor>();
+    return std::tuple{c->clogged(), c->escapees(), c->clog_time(), c->longest_pause()};
+  };
+  const auto [clogged, s, t, pause] = run(0.2);
+  ASSERT_TRUE(clogged);
+  ASSERT_GT(pause, 0.01) << "the scene must have a standstill that breaks";
+  ASSERT_LT(pause, 0.19);
+  std::printf("longest broken standstill %.4f s; s = %ld, clog at %.4f s\n", pause, s, t);
+  const auto [clogged_above, s_above, t_above, pause_above] = run(pause + 0.005);
+  EXPECT_TRUE(clogged_above);
+  EXPECT_EQ(s_above, s);
+  const double checks = (0.2 + pause) / 1000;  // both runs' check intervals
+  EXPECT_NEAR(t_above, t, checks);
+  EXPECT_NEAR(pause_above, pause, checks);
+  const auto [clogged_below, s_below, t_below, pause_below] = run(pause - 0.005);
+  EXPECT_TRUE(clogged_below);
+  EXPECT_LT(t_below, t) << "the standstill that broke is now the clog";
+  EXPECT_LE(s_below, s);
+}
+
 TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
   auto sim = make_sim(channel_case(), {"species[0].radius=1.5e-5", "inlet.volume_fraction=0.05", "time.end=0.6",
                                        "clog.window=0.2"});

@@ -276,8 +276,11 @@ Config read_config(CaseFile& f) {
   // ---- modules
   c.modules = f.strings("modules", std::vector<std::string>{"contact"});
   for (const auto& m : c.modules)
-    if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end())
-      f.fail("modules", "module names from {contact, gravity, walls, hill, moonlet, channel, drag, inlet, clog, lubrication, self-gravity}; unknown module '" + m + "'");
+    if (std::find(kKnownModules.begin(), kKnownModules.end(), m) == kKnownModules.end()) {
+      std::string known;
+      for (const auto& k : kKnownModules) known += (known.empty() ? "" : ", ") + k;
+      f.fail("modules", "module names from {" + known + "}; unknown module '" + m + "'");
+    }
   for (const char* m : {"drag", "inlet", "clog"})
     if (c.has_module(m) && !c.has_module("channel")) f.fail("modules", std::string("\"channel\" with \"") + m + "\" (it needs the channel geometry)");
 

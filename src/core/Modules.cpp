@@ -18,23 +18,6 @@
 
 namespace cassini {
 
-void Gravity::force(Simulation& sim) {
-  ParticleStore& p = sim.particles;
-  for (std::size_t i = 0; i < p.nlocal; ++i) p.f[i] += p.mass[i] * g_;
-}
-
-double Gravity::potential_energy(const Simulation& sim) const {
-  const ParticleStore& p = sim.particles;
-  double u = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) u -= p.mass[i] * g_.dot(p.x[i]);
-  return u;
-}
-
-void Gravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
-  const ParticleStore& p = sim.particles;
-  for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * g_;
-}
-
 // The particles' wall-spring columns: domain planes first, then channel features, then the moonlet.
 int moonlet_wall_slot(const Config& cfg) {
   int slot = static_cast<int>(domain_walls(cfg).size());

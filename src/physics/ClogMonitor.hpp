@@ -32,7 +32,8 @@
 // The window's cost: every clog is confirmed by clog.window seconds of a packed pile, most of a
 // run's contacts. longest_pause (summary.json, the ensemble CSV) is the longest standstill at
 // the neck that ended in a passage. Any window longer than every such pause in an ensemble gives
-// the same s and clog time, run by run (a standstill that is followed by no passage is the clog);
+// the same s and clog time, run by run, to the checks' interval (a standstill that no passage
+// ends is the clog);
 // scripts/clog-window reads it off an ensemble.
 #include "core/Module.hpp"
 
