@@ -33,8 +33,7 @@
 // run's contacts. longest_pause (summary.json, the ensemble CSV) is the longest standstill at
 // the neck that ended in a passage. Any window longer than every such pause in an ensemble gives
 // the same s and clog time, run by run, to the checks' interval (a standstill that no passage
-// ends is the clog);
-// scripts/clog-window reads it off an ensemble.
+// ends is the clog); scripts/clog_physics.py reports it per ensemble.
 #include "core/Module.hpp"
 
 namespace cassini {
