@@ -37,7 +37,35 @@ def load(path):
     }
 
 
+def plot(res, out, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+    base = res["base"]
+    names = [v for v in res if v != "base" and res[v]["ok"] > 1]
+    q = [res[v]["mean"] / base["mean"] for v in names]
+    e = [qq * math.hypot(res[v]["se"] / res[v]["mean"], base["se"] / base["mean"]) for qq, v in zip(q, names)]
+    fig, ax = plt.subplots(figsize=(5, 0.3 * len(names) + 1.2))
+    ax.errorbar(q, range(len(names)), xerr=e, fmt="o")
+    ax.axvline(1, color="gray", lw=0.8)
+    ax.set_yticks(range(len(names)), names)
+    ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.set_xlabel("<s> / <s>(base)")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    print("wrote", out)
+
+
 def main():
+    out = None
+    if "--plot" in sys.argv:
+        k = sys.argv.index("--plot")
+        out = sys.argv[k + 1]
+        del sys.argv[k:k + 2]
     for d in sys.argv[1:]:
         variants = sorted(v for v in os.listdir(d) if os.path.exists(os.path.join(d, v, "ensemble.csv")))
         res = {v: load(os.path.join(d, v, "ensemble.csv")) for v in variants}
@@ -59,6 +87,8 @@ def main():
             print(f"| {v} | {r['runs']} | {r['clogged']} | {r['guard']} | {r['mean']:.1f} | {r['se']:.1f} | {ratio} | "
                   f"{r['cv']:.2f} | {r['median']:.0f} | {r['clog_time']:.2f} | {r['overlap']:.3f} | {r['pause']:.3f} | "
                   f"{r['wall']:.1f} |")
+        if out:
+            plot(res, out, d)
 
 
 if __name__ == "__main__":
