@@ -9,7 +9,9 @@
    "no clogging" beyond x_c.
 Weighted least squares on ln <s> (weights from each point's standard error); prints each fit's
 parameters, chi^2 per degree of freedom, and the D/d at which the fit reaches <s> = 1e3, 1e4.
-Runs stopped by a guard are left out; runs that reached the time limit count with their s.
+Runs stopped by a guard are left out. A point where some run reached the time limit without a
+clog is a lower bound on <s> (its s so far): it is not fitted, and each fit's value there is
+printed beside it. --fit-from X fits only D/d >= X.
 """
 import csv
 import math
@@ -57,22 +59,54 @@ def fit_div(x, y, w):
 
 
 def main():
-    args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    root = args[0]
-    variant = args[1] if len(args) > 1 else "base"
-    pts = points(root, variant)
-    print("| D/d | runs | not clogged | <s> | std. error |")
+    argv = list(sys.argv[1:])
+    fit_from, plot_out = 0.0, None
+    if "--fit-from" in argv:
+        k = argv.index("--fit-from")
+        fit_from = float(argv[k + 1])
+        del argv[k:k + 2]
+    if "--plot" in argv:
+        k = argv.index("--plot")
+        plot_out = argv[k + 1]
+        del argv[k:k + 2]
+    root = argv[0]
+    variants = (argv[1] if len(argv) > 1 else "base").split(",")
+    ax = None
+    if plot_out:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    for k, variant in enumerate(variants):
+        print(f"\n{variant}\n")
+        analyse(root, variant, fit_from, ax, f"C{k}")
+    if ax is not None:
+        ax.plot([1.7, 2.07], [100, 1000], "s", color="k", label="Marin et al. 2018 (order of magnitude)")
+        ax.set_yscale("log")
+        ax.set_xlabel("D/d")
+        ax.set_ylabel("<s>")
+        ax.legend(fontsize=6.5)
+        fig.tight_layout()
+        fig.savefig(plot_out, dpi=120)
+        print("wrote", plot_out)
+
+
+def analyse(root, variant, fit_from, ax, color):
+    allpts = points(root, variant)
+    print("| D/d | runs | not clogged (time limit) | <s> | std. error |")
     print("|---|---|---|---|---|")
-    for x, m, se, n, u in pts:
-        print(f"| {x} | {n} | {u} | {m:.1f} | {se:.1f} |")
+    for x, m, se, n, u in allpts:
+        print(f"| {x} | {n} | {u} | {'> ' if u else ''}{m:.0f} | {se:.1f} |")
+    bounds = [p for p in allpts if p[4] > 0]
+    pts = [p for p in allpts if p[4] == 0 and p[0] >= fit_from]
     if len(pts) < 3:
         return
     x = np.array([p[0] for p in pts])
     y = np.log([p[1] for p in pts])
     w = np.array([(p[1] / p[2]) ** 2 for p in pts])  # 1 / var(ln s)
-    dof = len(x) - 2
     p, chi2 = fit_exp(x, y, w)
-    print(f"\nexp form: <s> = {math.exp(p[0]):.3g} exp({p[1]:.3f} (D/d)^2), chi2/dof = {chi2 / dof:.2f}")
+    print(f"\nfitted D/d >= {fit_from}: exp form: <s> = {math.exp(p[0]):.3g} exp({p[1]:.3f} (D/d)^2), "
+          f"chi2/dof = {chi2 / (len(x) - 2):.2f}")
     for target in (1e3, 1e4):
         print(f"  <s> = {target:.0e} at D/d = {math.sqrt((math.log(target) - p[0]) / p[1]):.2f}")
     xc, q, chi2d = fit_div(x, y, w)
@@ -81,25 +115,21 @@ def main():
           f"{chi2d / dof_d if dof_d > 0 else float('nan'):.2f}")
     for target in (1e3, 1e4):
         print(f"  <s> = {target:.0e} at D/d = {xc - math.exp((q[0] - math.log(target)) / q[1]):.2f}")
-    if "--plot" in sys.argv:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        out = sys.argv[sys.argv.index("--plot") + 1]
-        fig, ax = plt.subplots(figsize=(5, 3.6))
-        ax.errorbar(x, [p[1] for p in pts], yerr=[p[2] for p in pts], fmt="o", label=f"cassini ({variant})")
-        xs = np.linspace(1.2, 2.3, 200)
-        ax.plot(xs, np.exp(p[0] + p[1] * xs ** 2), "-", label="A exp(C (D/d)^2)")
+    for x0, m0, _, _, _ in bounds:
+        div = math.exp(q[0] - q[1] * math.log(xc - x0)) if x0 < xc else float("inf")
+        print(f"  at D/d = {x0} (<s> > {m0:.0f}): exp form {math.exp(p[0] + p[1] * x0 ** 2):.0f}, divergence {div:.0f}")
+    if ax is not None:
+        fitted = [pt for pt in allpts if pt[4] == 0]
+        ax.errorbar([pt[0] for pt in fitted], [pt[1] for pt in fitted], yerr=[pt[2] for pt in fitted], fmt="o",
+                    color=color, label=f"cassini, {variant}")
+        if bounds:
+            ax.plot([b[0] for b in bounds], [b[1] for b in bounds], "^", color=color,
+                    label=f"{variant}: lower bound (time limit)")
+        xs = np.linspace(max(fit_from, 1.2), 2.3, 200)
+        ax.plot(xs, np.exp(p[0] + p[1] * xs ** 2), "-", color=color, lw=0.8, label=f"{variant}: A exp(C (D/d)^2)")
         xd = xs[xs < xc]
-        ax.plot(xd, np.exp(q[0] - q[1] * np.log(xc - xd)), "--", label="A (x_c - D/d)^-gamma")
-        ax.plot([1.7, 2.07], [100, 1000], "s", color="k", label="Marin et al. 2018 (order of magnitude)")
-        ax.set_yscale("log")
-        ax.set_xlabel("D/d")
-        ax.set_ylabel("<s>")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out, dpi=120)
-        print("wrote", out)
+        ax.plot(xd, np.exp(q[0] - q[1] * np.log(xc - xd)), "--", color=color, lw=0.8,
+                label=f"{variant}: A (x_c - D/d)^-gamma")
 
 
 if __name__ == "__main__":
