@@ -9,9 +9,9 @@
    "no clogging" beyond x_c.
 Weighted least squares on ln <s> (weights from each point's standard error); prints each fit's
 parameters, chi^2 per degree of freedom, and the D/d at which the fit reaches <s> = 1e3, 1e4.
-Runs stopped by a guard are left out. A point where some run reached the time limit without a
-clog is a lower bound on <s> (its s so far): it is not fitted, and each fit's value there is
-printed beside it. --fit-from X fits only D/d >= X.
+Runs stopped by a guard are left out. A run that reached the time limit without a clog counts
+with its s so far (a lower bound); a point where most runs did so is only a lower bound on
+<s>: it is not fitted, and each fit's value there is printed beside it. --fit-from X fits only D/d >= X.
 """
 import csv
 import math
@@ -96,9 +96,9 @@ def analyse(root, variant, fit_from, ax, color):
     print("| D/d | runs | not clogged (time limit) | <s> | std. error |")
     print("|---|---|---|---|---|")
     for x, m, se, n, u in allpts:
-        print(f"| {x} | {n} | {u} | {'> ' if u else ''}{m:.0f} | {se:.1f} |")
-    bounds = [p for p in allpts if p[4] > 0]
-    pts = [p for p in allpts if p[4] == 0 and p[0] >= fit_from]
+        print(f"| {x} | {n} | {u} | {'> ' if 2 * u > n else ''}{m:.1f} | {se:.1f} |")
+    bounds = [p for p in allpts if 2 * p[4] > p[3]]
+    pts = [p for p in allpts if 2 * p[4] <= p[3] and p[0] >= fit_from]
     if len(pts) < 3:
         return
     x = np.array([p[0] for p in pts])
@@ -119,7 +119,7 @@ def analyse(root, variant, fit_from, ax, color):
         div = math.exp(q[0] - q[1] * math.log(xc - x0)) if x0 < xc else float("inf")
         print(f"  at D/d = {x0} (<s> > {m0:.0f}): exp form {math.exp(p[0] + p[1] * x0 ** 2):.0f}, divergence {div:.0f}")
     if ax is not None:
-        fitted = [pt for pt in allpts if pt[4] == 0]
+        fitted = [pt for pt in allpts if 2 * pt[4] <= pt[3]]
         ax.errorbar([pt[0] for pt in fitted], [pt[1] for pt in fitted], yerr=[pt[2] for pt in fitted], fmt="o",
                     color=color, label=f"cassini, {variant}")
         if bounds:
