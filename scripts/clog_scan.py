@@ -11,7 +11,7 @@ Weighted least squares on ln <s> (weights from each point's standard error); pri
 parameters, chi^2 per degree of freedom, and the D/d at which the fit reaches <s> = 1e3, 1e4.
 Runs stopped by a guard are left out. A run that reached the time limit without a clog counts
 with its s so far (a lower bound); a point where most runs did so is only a lower bound on
-<s>: it is not fitted, and each fit's value there is printed beside it. --fit-from X fits only D/d >= X.
+<s>: it is not fitted, and each fit's value there is printed beside it. --fit-from X / --fit-to Y fit only X <= D/d <= Y.
 """
 import csv
 import math
@@ -60,10 +60,14 @@ def fit_div(x, y, w):
 
 def main():
     argv = list(sys.argv[1:])
-    fit_from, plot_out = 0.0, None
+    fit_from, fit_to, plot_out = 0.0, 1e9, None
     if "--fit-from" in argv:
         k = argv.index("--fit-from")
         fit_from = float(argv[k + 1])
+        del argv[k:k + 2]
+    if "--fit-to" in argv:
+        k = argv.index("--fit-to")
+        fit_to = float(argv[k + 1])
         del argv[k:k + 2]
     if "--plot" in argv:
         k = argv.index("--plot")
@@ -79,7 +83,7 @@ def main():
         fig, ax = plt.subplots(figsize=(5.5, 3.8))
     for k, variant in enumerate(variants):
         print(f"\n{variant}\n")
-        analyse(root, variant, fit_from, ax, f"C{k}")
+        analyse(root, variant, fit_from, fit_to, ax, f"C{k}")
     if ax is not None:
         ax.plot([1.7, 2.07], [100, 1000], "s", color="k", label="Marin et al. 2018 (order of magnitude)")
         ax.set_yscale("log")
@@ -91,21 +95,25 @@ def main():
         print("wrote", plot_out)
 
 
-def analyse(root, variant, fit_from, ax, color):
+NAMES = {"base": "mu = 0.5 (thesis)", "mu0.1_inlet8": "mu = 0.1"}
+
+
+def analyse(root, variant, fit_from, fit_to, ax, color):
     allpts = points(root, variant)
+    name = NAMES.get(variant, variant)
     print("| D/d | runs | not clogged (time limit) | <s> | std. error |")
     print("|---|---|---|---|---|")
     for x, m, se, n, u in allpts:
         print(f"| {x} | {n} | {u} | {'> ' if 2 * u > n else ''}{m:.1f} | {se:.1f} |")
     bounds = [p for p in allpts if 2 * p[4] > p[3]]
-    pts = [p for p in allpts if 2 * p[4] <= p[3] and p[0] >= fit_from]
+    pts = [p for p in allpts if 2 * p[4] <= p[3] and fit_from <= p[0] <= fit_to]
     if len(pts) < 3:
         return
     x = np.array([p[0] for p in pts])
     y = np.log([p[1] for p in pts])
     w = np.array([(p[1] / p[2]) ** 2 for p in pts])  # 1 / var(ln s)
     p, chi2 = fit_exp(x, y, w)
-    print(f"\nfitted D/d >= {fit_from}: exp form: <s> = {math.exp(p[0]):.3g} exp({p[1]:.3f} (D/d)^2), "
+    print(f"\nfitted {x.min()} <= D/d <= {x.max()}: exp form: <s> = {math.exp(p[0]):.3g} exp({p[1]:.3f} (D/d)^2), "
           f"chi2/dof = {chi2 / (len(x) - 2):.2f}")
     for target in (1e3, 1e4):
         print(f"  <s> = {target:.0e} at D/d = {math.sqrt((math.log(target) - p[0]) / p[1]):.2f}")
@@ -121,15 +129,15 @@ def analyse(root, variant, fit_from, ax, color):
     if ax is not None:
         fitted = [pt for pt in allpts if 2 * pt[4] <= pt[3]]
         ax.errorbar([pt[0] for pt in fitted], [pt[1] for pt in fitted], yerr=[pt[2] for pt in fitted], fmt="o",
-                    color=color, label=f"cassini, {variant}")
+                    color=color, label=f"cassini, {name}")
         if bounds:
             ax.plot([b[0] for b in bounds], [b[1] for b in bounds], "^", color=color,
-                    label=f"{variant}: lower bound (time limit)")
-        xs = np.linspace(max(fit_from, 1.2), 2.3, 200)
-        ax.plot(xs, np.exp(p[0] + p[1] * xs ** 2), "-", color=color, lw=0.8, label=f"{variant}: A exp(C (D/d)^2)")
+                    label=f"{name}: lower bound (no clog in 20 s)")
+        xs = np.linspace(x.min(), 2.3, 200)
+        ax.plot(xs, np.exp(p[0] + p[1] * xs ** 2), "-", color=color, lw=0.8, label=f"{name}: A exp(C (D/d)^2), fitted {x.min()}-{x.max()}")
         xd = xs[xs < xc]
         ax.plot(xd, np.exp(q[0] - q[1] * np.log(xc - xd)), "--", color=color, lw=0.8,
-                label=f"{variant}: A (x_c - D/d)^-gamma")
+                label=f"{name}: A (x_c - D/d)^-gamma")
 
 
 if __name__ == "__main__":
