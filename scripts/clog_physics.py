@@ -52,7 +52,7 @@ def plot(res, out, title):
     ax.set_yticks(range(len(names)), names)
     ax.set_xscale("log")
     ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
-    ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax.set_xlabel("<s> / <s>(base)")
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
