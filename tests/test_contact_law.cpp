@@ -369,11 +369,8 @@ TEST(ContactLaw, ClippedNormalForceRestitutesAsDerived) {
   }
 }
 
-TEST(ContactLaw, SphereSlidingOnFloorEndsRollingAtFiveSevenths) {
-  // A solid sphere thrown without spin onto a frictional floor slides, friction mu_d m g
-  // slows it and spins it up until v = a omega; then it rolls at v = 5/7 v0 (I = 2/5 m a^2),
-  // independent of mu. The rolling onset is at t* = 2 v0 / (7 mu g).
-  const char* text = R"(
+// A 1 cm sphere under gravity on the floor of a long periodic box.
+const char* kSlidingOnFloor = R"(
 modules = ["contact", "gravity"]
 [domain]
 lo = [-1.0, -0.05, 0.0]
@@ -393,7 +390,12 @@ g = [0.0, 0.0, -9.81]
 [time]
 end = 1.0
 )";
-  auto sim = make_sim(text);
+
+TEST(ContactLaw, SphereSlidingOnFloorEndsRollingAtFiveSevenths) {
+  // A solid sphere thrown without spin onto a frictional floor slides, friction mu_d m g
+  // slows it and spins it up until v = a omega; then it rolls at v = 5/7 v0 (I = 2/5 m a^2),
+  // independent of mu. The rolling onset is at t* = 2 v0 / (7 mu g).
+  auto sim = make_sim(kSlidingOnFloor);
   const double a = 0.005, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, v0 = 0.5;
   const double tc = 1e-4, eta = -std::log(0.5) / tc, w = std::numbers::pi / tc;
   const double settle = 9.81 / (w * w + eta * eta);  // static overlap m g / k
@@ -414,26 +416,7 @@ TEST(ContactLaw, WallFrictionIsTheSpeciesOwn) {
   // (7 wall_mu g)), whatever its mu against other particles; with wall_mu = 0 it keeps v0 and
   // never spins although mu = 0.5.
   auto run = [](const std::string& mu, const std::string& wall_mu, double t) {
-    const std::string text = R"(
-modules = ["contact", "gravity"]
-[domain]
-lo = [-1.0, -0.05, 0.0]
-hi = [1.0, 0.05, 0.1]
-boundary = ["periodic", "periodic", "wall"]
-[[species]]
-density = 2500.0
-radius = 0.005
-t_c = 1.0e-4
-e = 0.5
-mu_s = )" + mu + "\nwall_mu_s = " + wall_mu + R"(
-[particles]
-init = "none"
-[gravity]
-g = [0.0, 0.0, -9.81]
-[time]
-end = 1.0
-)";
-    auto sim = make_sim(text.c_str());
+    auto sim = make_sim(kSlidingOnFloor, {"species.0.mu_s=" + mu, "species.0.mu_d=" + mu, "species.0.wall_mu_s=" + wall_mu});
     const double a = 0.005, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
     const double tc = 1e-4, eta = -std::log(0.5) / tc, w = std::numbers::pi / tc;
     sim->particles.add(0, 0, a, m, Vec3(0, 0, a - 9.81 / (w * w + eta * eta)), Vec3(0.5, 0, 0));
