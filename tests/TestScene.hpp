@@ -9,6 +9,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
+#include "io/ReadConfig.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini::test {

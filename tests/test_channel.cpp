@@ -101,7 +101,7 @@ TEST(StokesDrag, IsolatedBeadRelaxesToTheFluidWithTheStokesTime) {
 // The field integrates to the beads' total volume whatever their arrangement.
 TEST(VolumeFraction, BeadInEveryNodeCellGivesUniformPhiAndTheFieldHoldsTheVolume) {
   const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
-  ChannelGeometry geo(cfg.channel);
+  ChannelGeometry geo(cfg.get<ChannelConfig>());
   const double w = 2e-5, H = cfg.hi[2] - cfg.lo[2];
   VolumeFraction vf(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, w);
   const double h = vf.node_spacing(), a = 4e-6, V = 4.0 / 3.0 * std::numbers::pi * a * a * a;
@@ -125,8 +125,8 @@ TEST(VolumeFraction, BeadInEveryNodeCellGivesUniformPhiAndTheFieldHoldsTheVolume
 // the ragged edge of the disk, a ring of nodes each weighing e^-4.5 / (2 pi 16) of the total.
 TEST(VolumeFraction, LoneBeadSeesTheKernelPeakOfWidthW) {
   const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
-  ChannelGeometry geo(cfg.channel);
-  const double w = cfg.channel.phi_width, H = cfg.hi[2] - cfg.lo[2];
+  ChannelGeometry geo(cfg.get<ChannelConfig>());
+  const double w = cfg.get<ChannelConfig>().phi_width, H = cfg.hi[2] - cfg.lo[2];
   VolumeFraction vf(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, 0.5 * w);  // 3 w inside the channel
   const double a = cfg.species[0].radius_min, V = 4.0 / 3.0 * std::numbers::pi * a * a * a;
   ParticleStore p;
@@ -143,8 +143,8 @@ TEST(VolumeFraction, LoneBeadSeesTheKernelPeakOfWidthW) {
 // leaves phi = 0 (to the 2^-50 fixed point); beside a neighbour, exactly the neighbour's field.
 TEST(VolumeFraction, OwnDepositIsWhatTheBeadAddsToTheField) {
   const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
-  ChannelGeometry geo(cfg.channel);
-  const double w = cfg.channel.phi_width, H = cfg.hi[2] - cfg.lo[2];
+  ChannelGeometry geo(cfg.get<ChannelConfig>());
+  const double w = cfg.get<ChannelConfig>().phi_width, H = cfg.hi[2] - cfg.lo[2];
   const double a = cfg.species[0].radius_min, V = 4.0 / 3.0 * std::numbers::pi * a * a * a;
   const Vec3 me(-4.03e-4, 0.11e-4, 5e-5), other(-3.41e-4, 0.37e-4, 5e-5);
   VolumeFraction both(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], H, 0.5 * w),
@@ -196,7 +196,7 @@ TEST(StokesDrag, FaxenConfinementHasTheReflectionLimit) {
   // Far from both walls (a << h) the first reflection off two walls raises the drag by
   // 1.004 a / (h / 2) (Faxen; single wall: 9/16 a/z); with drag.confinement = "none" it is 1.
   const Config cfg = config_from(channel_case(R"(["channel", "drag"])"), {"drag.confinement=\"faxen\""});
-  ChannelGeometry geo(cfg.channel);
+  ChannelGeometry geo(cfg.get<ChannelConfig>());
   StokesDrag faxen(cfg, geo);
   const double h = cfg.hi[2] - cfg.lo[2];
   for (double lambda : {1e-3, 1e-2}) {
@@ -220,8 +220,8 @@ TEST(StokesDrag, VoidageFunctionsJoinStokesAndCarmanKozeny) {
   // Carman-Kozeny, so at phi = 0.6 it exceeds Darcy by the second term only (0.9 %), at 0.5 by
   // 2.6 %. The thesis's form is Carman-Kozeny with K = 5.34 at every phi (no dilute limit).
   const Config cfg = config_from(channel_case(R"(["channel", "drag"])"));
-  ChannelGeometry geo(cfg.channel);
-  const double eta = cfg.channel.viscosity, d = 1e-4, slip = 1e-3;
+  ChannelGeometry geo(cfg.get<ChannelConfig>());
+  const double eta = cfg.get<ChannelConfig>().viscosity, d = 1e-4, slip = 1e-3;
   auto darcy_force = [&](double phi, double K) {
     const double k = d * d * std::pow(1 - phi, 3) / (36 * K * phi * phi);
     return eta * (1 - phi) * slip / k * (std::numbers::pi * d * d * d / 6) / phi;
@@ -427,9 +427,9 @@ TEST(ClogMonitor, TheFrontPassesWhenTheSuspensionHasCrossedHalfTheApproach) {
   sim->run();
   const auto* clog = sim->find<ClogMonitor>();
   const Config& cfg = sim->cfg;
-  const double D = cfg.channel.neck_width;
-  const double plug = (cfg.channel.neck_x0 - 2 * D - (cfg.channel.inlet_x + 0.5 * cfg.channel.inlet_length)) /
-                      cfg.channel.mean_velocity;
+  const double D = cfg.get<ChannelConfig>().neck_width;
+  const double plug = (cfg.get<ChannelConfig>().neck_x0 - 2 * D - (cfg.get<ChannelConfig>().inlet_x + 0.5 * cfg.get<ChannelConfig>().inlet_length)) /
+                      cfg.get<ChannelConfig>().mean_velocity;
   std::printf("front passed at %.3f s (plug flow %.3f s), %ld escapees in all\n", clog->front_time(), plug,
               clog->escapees());
   ASSERT_GT(clog->front_time(), 0);
@@ -449,7 +449,7 @@ TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
   while (!sim->finished && sim->time < 3.0) {
     ASSERT_NO_THROW(sim->step());
     if (sim->step_count % 1000) continue;
-    worst_overlap = std::max(worst_overlap, sim->contact->max_overlap_fraction());
+    worst_overlap = std::max(worst_overlap, sim->find<ContactForces>()->max_overlap_fraction());
     worst_overlap = std::max(worst_overlap, sim->find<ChannelWalls>()->max_overlap_fraction());
     for (std::size_t i = 0; i < sim->particles.nlocal; ++i) fastest = std::max(fastest, sim->particles.v[i].norm());
   }
@@ -484,7 +484,7 @@ TEST(StokesFlow, SolvedFieldIsMirrorSymmetricAboutTheAxis) {
   for (int res : {8, 10, 16}) {
     const Config cfg = config_from(channel_case(), {"flow.resolution=" + std::to_string(res)});
     const FlowField f(cfg, MPI_COMM_WORLD);
-    const ChannelGeometry geo(cfg.channel);
+    const ChannelGeometry geo(cfg.get<ChannelConfig>());
     double worst = 0, scale = 0;
     for (double x = -2.5e-4; x <= 2.5e-4; x += 0.137e-4)
       for (double y = 0.013e-4; y < 2e-4; y += 0.091e-4)
@@ -524,7 +524,7 @@ TEST(StokesFlow, LongSquareNeckCarriesTheSquareDuctProfile) {
                                                     "domain.hi=[6.0e-4, 2.0e-4, 1.0e-4]", "inlet.x=-7.0e-4",
                                                     "flow.solve_half_length=2.0e-4"});
     const FlowField f(cfg, MPI_COMM_WORLD);
-    const double D = 1e-4, neck_mean = 4 * cfg.channel.mean_velocity;  // a quarter of the width
+    const double D = 1e-4, neck_mean = 4 * cfg.get<ChannelConfig>().mean_velocity;  // a quarter of the width
     double worst = 0;
     for (int i = 1; i < 10; ++i)
       for (int j = 1; j < 10; ++j) {
@@ -555,7 +555,7 @@ TEST(StokesFlow, ConvergesAtSecondOrderAtTheNeck) {
   const double D = 1e-4, h = 0.5e-4;
   std::vector<Vec3> beads, edges, far;
   {
-    ChannelGeometry geo(config_from(channel_case(), short_channel(8)).channel);
+    ChannelGeometry geo(config_from(channel_case(), short_channel(8)).get<ChannelConfig>());
     for (double x = -0.6; x <= 0.6; x += 0.1)
       for (double y = 0; y <= 0.9; y += 0.1)
         if (geo.clearance(x * D, y * D) >= 0.3 * D) beads.push_back(Vec3(x * D, y * D, 0.5 * h));

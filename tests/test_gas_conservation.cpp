@@ -42,7 +42,7 @@ end = 1.0
     if (s % 50 == 0) {
       const double e = sim->kinetic_energy() + sim->elastic_energy();
       worst = std::max(worst, std::abs(e / e0 - 1));
-      collisions_seen += sim->contact->contacts();
+      collisions_seen += sim->find<ContactForces>()->contacts();
     }
   }
   const double drift = std::abs((sim->kinetic_energy() + sim->elastic_energy()) / e0 - 1);

@@ -129,15 +129,15 @@ TEST(HardCases, NearlyElasticRingGasHeatsByExactlyTheShearWorkLessTheLosses) {
     return g;
   };
   auto work = [&] {
-    double w = sim->halo.shear_energy + sim->contact->energy_input(), g = 0;
+    double w = sim->halo.shear_energy + sim->find<ContactForces>()->energy_input(), g = 0;
     MPI_Allreduce(&w, &g, 1, MPI_DOUBLE, MPI_SUM, sim->domain.comm);
     return g;
   };
   const double ke0 = sim->kinetic_energy(), u0 = potential(), w0 = work();
-  sim->contact->take_impacts();
+  sim->find<ContactForces>()->take_impacts();
   while (sim->time < T0) sim->step();
   const double T_end = temperature(*sim);
-  double loss = sim->contact->take_impacts().loss, D = 0;
+  double loss = sim->find<ContactForces>()->take_impacts().loss, D = 0;
   MPI_Allreduce(&loss, &D, 1, MPI_DOUBLE, MPI_SUM, sim->domain.comm);
   const double dE = sim->kinetic_energy() - ke0 + potential() - u0, W = work() - w0;
   std::printf("e = 0.99 ring gas over one orbit: T %.3e -> %.3e m^2/s^2; dKE + dU %.4e J, W %.4e J, D %.4e J\n",
@@ -157,7 +157,7 @@ TEST(HardCases, KnudsenRingGasCrossesTheShearedBoundaryManyTimes) {
   while (sim->time < 2 * T0) sim->step();
   const double crossings = double(sim->halo.shear_crossings);
   std::printf("Knudsen gas: %.0f crossings of the sheared boundary, %ld collisions, T = %.3e\n", crossings,
-              sim->contact->take_collisions(), temperature(*sim));
+              sim->find<ContactForces>()->take_collisions(), temperature(*sim));
   for (std::size_t i = 0; i < sim->particles.nlocal; ++i) {
     ASSERT_TRUE(sim->particles.x[i].allFinite());
     EXPECT_LT(std::abs(sim->particles.x[i][1]), 250.0 + 50.0) << "stays near the box between rebuilds";

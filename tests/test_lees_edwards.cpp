@@ -206,8 +206,8 @@ TEST(LeesEdwards, ShearWorkEqualsCollisionalDissipationAtSteadyState) {
   auto& p = sim->particles;
   const double volume = 0.012 * 0.012 * 0.012;
   for (int s = 0; s < 40000; ++s) sim->step();  // to the steady state (~20 collision times)
-  sim->contact->take_impacts();
-  const double w0 = sim->halo.shear_energy + sim->contact->energy_input(), ke0 = sim->kinetic_energy(), t0 = sim->time;
+  sim->find<ContactForces>()->take_impacts();
+  const double w0 = sim->halo.shear_energy + sim->find<ContactForces>()->energy_input(), ke0 = sim->kinetic_energy(), t0 = sim->time;
   double kin_xy = 0;
   long samples = 0;
   const int steps = 120000;
@@ -222,9 +222,9 @@ TEST(LeesEdwards, ShearWorkEqualsCollisionalDissipationAtSteadyState) {
     }
   }
   const double span = sim->time - t0;
-  const auto imp = sim->contact->take_impacts();
+  const auto imp = sim->find<ContactForces>()->take_impacts();
   double local[4] = {kin_xy / samples, imp.virial(0, 1), imp.loss,
-                     sim->halo.shear_energy + sim->contact->energy_input() - w0}, g[4];
+                     sim->halo.shear_energy + sim->find<ContactForces>()->energy_input() - w0}, g[4];
   MPI_Allreduce(local, g, 4, MPI_DOUBLE, MPI_SUM, sim->domain.comm);
   const double pxy = (g[0] + g[1] / span) / volume;  // P_xy
   const double H = -pxy * rate * volume * span, D = g[2], W = g[3] - (sim->kinetic_energy() - ke0);

@@ -91,7 +91,7 @@ GasRun run_gas(const std::string& integrator, double orbits) {
   r.sim->setup();
   r.multirate = r.sim->find<MultiRateHill>();
   while (r.sim->time < orbits * kT0) r.sim->step();
-  r.collisions = r.sim->contact->take_collisions();
+  r.collisions = r.sim->find<ContactForces>()->take_collisions();
   r.dispersion = radial_dispersion(*r.sim);
   return r;
 }

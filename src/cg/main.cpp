@@ -15,6 +15,7 @@
 
 #include "cg/CoarseGrainer.hpp"
 #include "io/Snapshot.hpp"
+#include "io/SnapshotSchema.hpp"
 
 using namespace cassini::cg;
 namespace fs = std::filesystem;
@@ -23,44 +24,15 @@ namespace {
 
 [[noreturn]] void fail(const std::string& msg) { throw std::runtime_error(msg); }
 
-hid_t must(hid_t h, const std::string& what) {
-  if (h < 0) fail(what);
-  return h;
-}
-
-// Reads rows [lo, lo + n) of a [1][N][w] dataset (all of a small dataset when n == 0 and w == 0).
-void read(hid_t file, const std::string& path, hsize_t lo, hsize_t n, hsize_t w, double* out, bool frame = true) {
-  hid_t d = must(H5Dopen2(file, path.c_str(), H5P_DEFAULT), "missing dataset " + path);
-  hid_t fs_ = H5Dget_space(d);
-  std::vector<hsize_t> start, count;
-  if (frame) { start.push_back(0); count.push_back(1); }
-  start.push_back(lo); count.push_back(n);
-  if (w > 1) { start.push_back(0); count.push_back(w); }
-  hid_t mem = H5Screate_simple(int(count.size()), count.data(), nullptr);
-  if (n == 0) { H5Sselect_none(fs_); H5Sselect_none(mem); }
-  else H5Sselect_hyperslab(fs_, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
-  static double dummy[3];
-  const herr_t r = H5Dread(d, H5T_NATIVE_DOUBLE, mem, fs_, H5P_DEFAULT, n ? out : dummy);
-  H5Sclose(mem); H5Sclose(fs_); H5Dclose(d);
-  if (r < 0) fail("cannot read " + path);
-}
-
 // Time of a snapshot and its frame's angular velocity (0 when the frame does not rotate).
 void frame_time(const std::string& path, double& time, double& rotation) {
-  hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (file < 0) fail(path + ": not a readable HDF5 file (truncated or still being written?)");
-  double state[3] = {0, 0, 0};
-  rotation = 0;
   try {
-    read(file, "parameters/time_offset_dt", 0, 3, 1, state, false);
-    if (H5Lexists(file, "parameters/frame_rotation", H5P_DEFAULT) > 0)
-      read(file, "parameters/frame_rotation", 0, 1, 1, &rotation, false);
-  } catch (...) {
-    H5Fclose(file);
-    throw std::runtime_error(path + ": not a cassini snapshot (no parameters/time_offset_dt)");
+    const cassini::SnapshotReader in(path);
+    time = in.number("parameters/time_offset_dt", 0);
+    rotation = in.has("parameters/frame_rotation") ? in.number("parameters/frame_rotation") : 0.0;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": not a cassini snapshot (" + e.what() + ")");
   }
-  H5Fclose(file);
-  time = state[0];
 }
 
 // One end of a --frames window: seconds ("120", "120s") or orbital periods ("0.9T0").
@@ -117,26 +89,6 @@ std::vector<std::string> select_frames(const std::vector<std::string>& args, con
   return kept;
 }
 
-hsize_t rows_of(hid_t file, const std::string& path) {
-  hid_t d = must(H5Dopen2(file, path.c_str(), H5P_DEFAULT), "missing dataset " + path);
-  hid_t s = H5Dget_space(d);
-  hsize_t dims[3] = {0, 0, 0};
-  H5Sget_simple_extent_dims(s, dims, nullptr);
-  H5Sclose(s); H5Dclose(d);
-  return dims[1];
-}
-
-// Rows of an unframed [M] or [M][w] dataset (contacts).
-hsize_t leading_rows(hid_t file, const std::string& path) {
-  hid_t d = must(H5Dopen2(file, path.c_str(), H5P_DEFAULT), "missing dataset " + path);
-  hid_t sp = H5Dget_space(d);
-  hsize_t dims[2] = {0, 0};
-  H5Sget_simple_extent_dims(sp, dims, nullptr);
-  H5Sclose(sp);
-  H5Dclose(d);
-  return dims[0];
-}
-
 struct Loaded {
   Frame frame;
   double shear_rate = 0, time = 0;
@@ -160,46 +112,30 @@ void keep_rows(std::vector<double>& a, int width, const Keep& keep) {
 
 Loaded load(const std::string& path, int rank, int size, int copy) {
   if (!fs::exists(path)) fail(path + ": no such snapshot");
-  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
-  hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
-  H5Pclose(fapl);
-  if (file < 0) fail(path + ": not a readable HDF5 file (truncated or still being written?)");
-  if (H5Aexists_by_name(file, "parameters", "complete", H5P_DEFAULT) <= 0) {
-    H5Fclose(file);
-    fail(path + ": snapshot is incomplete (no parameters@complete)");
-  }
+  const cassini::SnapshotReader in(path);  // the solver's reader: the same layout, the same checks
   Loaded L;
-  const std::string g = "particles/grains/";
-  const hsize_t N = rows_of(file, g + "position/value");
+  const hsize_t N = in.particles();
   const hsize_t lo = N * rank / size, n = N * (rank + 1) / size - lo;
   Frame& f = L.frame;
-  f.x.resize(3 * n);
-  f.v.resize(3 * n);
-  f.m.resize(n);
-  read(file, g + "position/value", lo, n, 3, f.x.data());
-  read(file, g + "velocity/value", lo, n, 3, f.v.data());
-  read(file, g + "mass/value", lo, n, 1, f.m.data());
-  if (H5Lexists(file, (g + "body_force").c_str(), H5P_DEFAULT) > 0) {
-    f.body.resize(3 * n);
-    read(file, g + "body_force/value", lo, n, 3, f.body.data());
-  }
+  f.x = in.grain("position", lo, n, 3);
+  f.v = in.grain("velocity", lo, n, 3);
+  f.m = in.grain("mass", lo, n, 1);
+  if (in.has(cassini::kGrains + "body_force")) f.body = in.grain("body_force", lo, n, 3);
   // Pair and wall contacts (each once), a block of rows per rank; the three arrays of a kind
   // (3 values per row) share their row count. Snapshots from before wall forces have none.
   auto rows_block = [&](const std::vector<std::string>& names, std::vector<std::vector<double>*> into) {
-    if (H5Lexists(file, names[0].c_str(), H5P_DEFAULT) <= 0) return;
-    const hsize_t M = leading_rows(file, names[0]), clo = M * rank / size, cn = M * (rank + 1) / size - clo;
+    if (!in.has(names[0])) return;
+    const hsize_t M = in.extent(names[0], 0), clo = M * rank / size, cn = M * (rank + 1) / size - clo;
     for (std::size_t k = 0; k < names.size(); ++k) {
       into[k]->resize(3 * cn);
-      if (M > 0) read(file, names[k], clo, cn, 3, into[k]->data(), false);
+      in.read(names[k], H5T_NATIVE_DOUBLE, clo, cn, 3, into[k]->data(), false);
     }
   };
-  if (H5Lexists(file, "contacts", H5P_DEFAULT) <= 0) fail(path + ": no contacts group");
+  if (!in.has("contacts")) fail(path + ": no contacts group");
   rows_block({"contacts/force", "contacts/position_i", "contacts/branch"}, {&f.contact_force, &f.contact_x, &f.contact_branch});
   rows_block({"contacts/wall_force", "contacts/wall_point", "contacts/wall_branch"}, {&f.wall_force, &f.wall_point, &f.wall_branch});
-  if (copy >= 0 && H5Lexists(file, (g + "le_copy").c_str(), H5P_DEFAULT) > 0) {
-    std::vector<double> ids(N), copies(N);
-    read(file, g + "id/value", 0, N, 1, ids.data());
-    read(file, g + "le_copy/value", 0, N, 1, copies.data());
+  if (copy >= 0 && in.has(cassini::kGrains + "le_copy")) {
+    const std::vector<double> ids = in.grain("id", 0, N, 1), copies = in.grain("le_copy", 0, N, 1);
     std::vector<double> members;  // ids of the kept copy, sorted
     for (hsize_t k = 0; k < N; ++k)
       if (copies[k] == copy) members.push_back(ids[k]);
@@ -212,34 +148,20 @@ Loaded load(const std::string& path, int rank, int size, int copy) {
     if (!f.body.empty()) keep_rows(f.body, 3, mine);
     // The same blocks of contact rows as rows_block read; a pair belongs to the copy of its first particle.
     auto filter_contacts = [&](const std::string& ids_path, int per_row, std::vector<std::vector<double>*> arrays) {
-      if (arrays[0]->empty() && H5Lexists(file, ids_path.c_str(), H5P_DEFAULT) <= 0) return;
-      const hsize_t M = leading_rows(file, ids_path), clo = M * rank / size, cn = M * (rank + 1) / size - clo;
+      if (arrays[0]->empty() && !in.has(ids_path)) return;
+      const hsize_t M = in.extent(ids_path, 0), clo = M * rank / size, cn = M * (rank + 1) / size - clo;
       std::vector<double> pid(per_row * cn);
-      if (M > 0) read(file, ids_path, clo, cn, per_row, pid.data(), false);
+      in.read(ids_path, H5T_NATIVE_DOUBLE, clo, cn, per_row, pid.data(), false);
       for (auto* a : arrays) keep_rows(*a, 3, [&](std::size_t r) { return member(pid[r * per_row]); });
     };
     filter_contacts("contacts/pair_ids", 2, {&f.contact_force, &f.contact_x, &f.contact_branch});
     filter_contacts("contacts/wall_particle", 1, {&f.wall_force, &f.wall_point, &f.wall_branch});
   }
-  double edges[9], origin[3], state[3], rate = 0, planar = 0;
-  read(file, g + "box/edges/value", 0, 3, 3, edges);
-  read(file, g + "box/origin", 0, 3, 1, origin, false);
-  read(file, "parameters/time_offset_dt", 0, 3, 1, state, false);
-  read(file, "parameters/shear_rate", 0, 1, 1, &rate, false);
-  {
-    hid_t d = must(H5Dopen2(file, "parameters/planar", H5P_DEFAULT), "parameters/planar");
-    int p = 0;
-    H5Dread(d, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, &p);
-    H5Dclose(d);
-    planar = p;
-  }
-  hid_t box = H5Gopen2(file, (g + "box").c_str(), H5P_DEFAULT);
-  hid_t a = H5Aopen(box, "boundary", H5P_DEFAULT);
-  hid_t t = H5Aget_type(a);
-  std::string bounds(H5Tget_size(t), '\0');
-  H5Aread(a, t, bounds.data());
-  H5Tclose(t); H5Aclose(a); H5Gclose(box);
-  H5Fclose(file);
+  double edges[9], origin[3];
+  in.read(cassini::kGrains + "box/edges/value", H5T_NATIVE_DOUBLE, 0, 3, 3, edges);
+  in.read(cassini::kGrains + "box/origin", H5T_NATIVE_DOUBLE, 0, 3, 1, origin, false);
+  const double rate = in.number("parameters/shear_rate");
+  const std::string bounds = in.attribute(cassini::kGrains + "box", "boundary");
   std::istringstream bs(bounds);
   std::string item;
   for (int d = 0; d < 3 && std::getline(bs, item, ','); ++d) f.periodic[d] = item.rfind("periodic", 0) == 0;
@@ -251,8 +173,8 @@ Loaded load(const std::string& path, int rank, int size, int copy) {
   f.le_offset = edges[3];  // xy tilt = wrapped offset
   f.le_rate = rate;
   L.shear_rate = rate;
-  L.time = state[0];
-  L.planar = planar != 0;
+  L.time = in.number("parameters/time_offset_dt", 0);
+  L.planar = in.number("parameters/planar") != 0;
   return L;
 }
 

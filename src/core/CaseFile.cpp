@@ -192,6 +192,18 @@ void CaseFile::fail(const std::string& key, const std::string& expected) const {
   throw ConfigError(source_ + ": key '" + name + "': expected " + expected + got);
 }
 
+double CaseFile::positive(const std::string& key, std::optional<double> fallback) {
+  const double v = number(key, fallback);
+  if (!(v > 0)) fail(key, "a positive number");
+  return v;
+}
+
+double CaseFile::non_negative(const std::string& key, std::optional<double> fallback) {
+  const double v = number(key, fallback);
+  if (v < 0) fail(key, "a number >= 0");
+  return v;
+}
+
 double CaseFile::number(const std::string& key, std::optional<double> fallback) {
   mark(canonical(split_key(key)));
   const auto* n = find(key);

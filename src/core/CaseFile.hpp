@@ -28,6 +28,8 @@ class CaseFile {
 
   bool has(const std::string& key) const;
   double number(const std::string& key, std::optional<double> fallback = std::nullopt);
+  double positive(const std::string& key, std::optional<double> fallback = std::nullopt);  // > 0
+  double non_negative(const std::string& key, std::optional<double> fallback = std::nullopt);  // >= 0
   long integer(const std::string& key, std::optional<long> fallback = std::nullopt);
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt);
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt);

@@ -2,15 +2,18 @@
 // The resolved, validated description of a run. Built once from a case file; everything
 // downstream reads this plain struct, never the TOML.
 #include <algorithm>
+#include <any>
 #include <array>
 #include <cstdint>
+#include <map>
+#include <stdexcept>
 #include <string>
+#include <typeindex>
 #include <vector>
 
 #include "core/CaseFile.hpp"
 #include "core/SizeDistribution.hpp"
 #include "core/Vec3.hpp"
-#include "physics/ChannelConfig.hpp"
 
 namespace cassini {
 
@@ -73,26 +76,23 @@ struct Config {
   // box runs alongside the main one LE1 and feeds it through the x boundaries (HaloExchange).
   bool modified_lees_edwards = false;
 
-  // Hill frame (module "hill"): Saturn at (0, -r0), frame rotating at Omega0
-  std::string hill_form = "linear";  // linear | exact
-  double vertical_frequency = 1.0;   // Omega_z / Omega0 of the vertical tide (> 1 mimics self-gravity)
-  double saturn_mass = 5.68e26, orbit_radius = 1.17e8;
-  double omega0() const;
+  // What modules tell the core about the scene when they read their tables (ModuleKind::read):
+  double frame_rotation = 0;  // angular velocity (about z) of a rotating frame: the Coriolis term
+  double pair_reach = 0;      // pairs interact across gaps up to this (lubrication), beyond contact
+  double halo_reach = 0;      // centre distance of pairs the neighbour list does not cover (self-gravity)
+  double obstacle_radius = 0; // a fixed sphere at the origin (the moonlet) initial particles keep clear of
 
-  // Self-gravity of the particles (module "self-gravity", physics/SelfGravity.hpp): a particle-mesh
-  // solve on an nx x ny x nz grid (nz = 1 when planar) for the long range, split from the short
-  // range (pairs, Newton minus the mesh's part) by a Gaussian of width `split`; solved every
-  // `every` steps (impulse multiple time stepping).
-  std::array<int, 3> self_gravity_grid{0, 0, 0};
-  double self_gravity_split = 0;
-  bool self_gravity_short_range = true;
-  long self_gravity_every = 1;
-  // Pairs closer than this get the short-range part (0 without it): 4 sqrt 2 split, where the
-  // Gaussian's complement has fallen to 5e-7 of Newton's force.
-  double self_gravity_reach() const;
-
-  // Moonlet (module "moonlet"): fixed at the origin
-  double moonlet_mass = 0, moonlet_radius = 0;
+  // Each module's own settings, read from its case-file table by its ModuleKind::read and kept
+  // here by type: the core carries them without knowing them (cfg.get<ChannelConfig>()).
+  std::map<std::type_index, std::any> settings;
+  template <class T>
+  void set(T value) { settings[typeid(T)] = std::move(value); }
+  template <class T>
+  bool has() const { return settings.count(typeid(T)) > 0; }
+  template <class T>
+  const T& get() const { return std::any_cast<const T&>(find_settings(typeid(T))); }
+  template <class T>
+  T& edit() { return std::any_cast<T&>(const_cast<std::any&>(find_settings(typeid(T)))); }
 
   std::vector<Species> species;
 
@@ -111,22 +111,15 @@ struct Config {
   double init_layer = 0;      // random, 3D: centres within +-layer/2 of the box's mid-plane (0: the whole box)
 
   std::vector<std::string> modules;
-  Vec3 gravity{0, 0, 0};
   bool clip_normal = false;
   bool exact_contacts = true;  // contact.scheme: "exact" (true) or "verlet"
-  // Lubrication (module "lubrication"): Reynolds pair force for gaps 0..reach, cut at roughness
-  double lubrication_roughness = 0, lubrication_viscosity = 0, lubrication_reach = 0;
   double skin = 0;                // Verlet skin; default 0.1 x largest diameter
   double max_rebuild_every = 0;   // 0: rebuild only on displacement
 
   double dt = 0, t_end = 0;
   bool force_dt = false;
-  // time.integrator: "verlet" (every particle every step) or "multirate" (Hill-frame scenes:
-  // free particles on the exact epicycle, the moonlet's pull as kicks every long step,
-  // contact steps only for particles that touch; see MultiRateHill.hpp)
+  // time.integrator: one of integrator_kinds() (ModuleRegistry.hpp), "verlet" by default
   std::string integrator = "verlet";
-  double long_step = 0;          // multirate: seconds (a whole number of steps; default ~T0/1000)
-  double max_tidal_phase = 0.1;  // multirate: sqrt(G M_moonlet / r^3) x long step above this: contact steps
 
   double dump_every = 0;      // simulated time between text dumps (0: none)
   double snapshot_every = 0;  // simulated time between H5MD snapshots (0: none)
@@ -147,8 +140,6 @@ struct Config {
   std::vector<PairParameters> pairs;
   const PairParameters& pair(int a, int b) const { return pairs[a * species.size() + b]; }
 
-  ChannelConfig channel;  // modules channel, drag, inlet, clog
-
   bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
   bool velocity_dependent_restitution() const;  // some pair's e is set per impact (Bridges)
   bool hertz() const;                           // some pair follows Hertz-Mindlin
@@ -156,15 +147,15 @@ struct Config {
   double max_radius() const;
   // Largest centre distance at which two particles touch (or lubricate), plus the skin: the
   // neighbour list's range, and the halo's unless halo_range() is wider.
-  double pair_range() const { return 2 * max_radius() + lubrication_reach + skin; }
+  double pair_range() const { return 2 * max_radius() + pair_reach + skin; }
   // The ghost halo's width: the pair range, or wider for the short range of self-gravity.
-  double halo_range() const { return std::max(pair_range(), self_gravity_reach() + skin); }
+  double halo_range() const { return std::max(pair_range(), halo_reach + skin); }
   bool has_module(const std::string& name) const;
   bool sheared() const { return boundary[1] == Boundary::LeesEdwards; }
   bool periodic_like(int d) const { return boundary[d] == Boundary::Periodic || boundary[d] == Boundary::LeesEdwards; }
-};
 
-// Reads and validates; throws ConfigError naming file, key and expectation.
-Config read_config(CaseFile& file);
+ private:
+  const std::any& find_settings(const std::type_index& type) const;
+};
 
 }  // namespace cassini

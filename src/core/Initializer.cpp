@@ -77,7 +77,7 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
                           : cfg.optical_depth > 0 ? "particles.optical_depth" : "particles.volume_fraction";
   // Keep clear of the moonlet; under modified Lees-Edwards boundaries this is the moonlet-free
   // copy LE2, and place_particles leaves out of LE1 what the moonlet's body holds.
-  const double moon = cfg.has_module("moonlet") && !cfg.modified_lees_edwards ? cfg.moonlet_radius : -1;
+  const double moon = cfg.obstacle_radius > 0 && !cfg.modified_lees_edwards ? cfg.obstacle_radius : -1;
   if (fraction > limit) {
     std::ostringstream os;
     os << "expected at most a " << (cfg.planar ? "area" : "volume") << " fraction of " << limit
@@ -276,7 +276,7 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
   // Modified Lees-Edwards boundaries: the same ring twice, LE1 (ids k) without what lies inside
   // the moonlet, and LE2 (ids N + k) whole.
   const std::size_t N = cands.size();
-  const double moon = cfg.has_module("moonlet") ? cfg.moonlet_radius : -1;
+  const double moon = cfg.obstacle_radius > 0 ? cfg.obstacle_radius : -1;
   for (int copy = 0; copy < (cfg.modified_lees_edwards ? 2 : 1); ++copy)
     for (std::size_t k = 0; k < N; ++k) {
       Vec3 x = cands[k].x;

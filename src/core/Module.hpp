@@ -79,6 +79,24 @@ class Module {
   // faces then moves no energy, and the rebuild need not evaluate it before and after.
   virtual bool image_invariant_potential() const { return false; }
   virtual double energy_input() const { return 0.0; }
+  // Elastic energy stored in this rank's owned contacts (observables, energy bookkeeping).
+  virtual double elastic_energy(const Simulation&) const { return 0.0; }
+
+  // A module that keeps particles apart (contacts, walls, the moonlet) reports the deepest
+  // overlap of its last force evaluation, as a fraction of the smaller radius, and the
+  // particle it is at; the guards stop the run beyond guards.max_overlap, naming it by
+  // overlap_label() ("wall overlap").
+  virtual double max_overlap_fraction() const { return 0.0; }
+  virtual std::int64_t worst_id() const { return -1; }
+  virtual std::string overlap_label() const { return "overlap"; }
+
+  // The module's own observables, as named global values (the module reduces over ranks
+  // itself: called collectively, the same values on every rank). They become columns of
+  // observables.csv and datasets of observables.h5md, at output.observe_every.
+  virtual void observables(Simulation&, std::vector<std::pair<std::string, double>>&) {}
+
+  // True for the particle-pair loop: its force stage is timed as "pair", the rest as "modules".
+  virtual bool pair_loop() const { return false; }
 };
 
 }  // namespace cassini

@@ -7,12 +7,8 @@
 #include <sstream>
 
 #include "core/Initializer.hpp"
-#include "core/Modules.hpp"
-#include "io/RunOutput.hpp"
-#include "physics/ContactForces.hpp"
-#include "physics/Moonlet.hpp"
-#include "physics/ChannelGeometry.hpp"
-#include "physics/PlaneWalls.hpp"
+#include "core/ModuleRegistry.hpp"
+#include "core/RunSink.hpp"
 
 namespace cassini {
 
@@ -26,10 +22,22 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   particles.impacts = cfg.velocity_dependent_restitution();
   particles.rolling = cfg.rolling();
   particles.copies = cfg.modified_lees_edwards;
-  particles.walls = static_cast<int>(domain_walls(cfg).size());
-  if (cfg.has_module("channel")) particles.walls += ChannelGeometry(cfg.channel).features();
-  if (cfg.has_module("moonlet")) particles.walls += 1;  // the moonlet's spring: the last slot
   if (cfg.decomposition == "metis") domain.use_cells(range);
+  // The modules, in registry order between the integrator and the guards. Made here, not in
+  // setup(): they size the per-particle wall springs (claim_wall_slots), which a restart reads.
+  const auto& ik = integrator_kinds();
+  for (const auto& k : ik)
+    if (k.name == cfg.integrator) modules.push_back(k.make(*this));
+  if (modules.empty()) throw std::logic_error("unknown integrator '" + cfg.integrator + "'");
+  for (const auto& k : module_kinds())
+    if (cfg.has_module(k.name)) modules.push_back(k.make(*this));
+  modules.push_back(make_guards(*this));  // last: they see every module's energy
+}
+
+int Simulation::claim_wall_slots(int n) {
+  const int first = particles.walls;
+  particles.walls += n;
+  return first;
 }
 
 Simulation::~Simulation() = default;
@@ -47,11 +55,7 @@ std::vector<std::string> Simulation::module_names() const {
 }
 
 void Simulation::setup() {
-  modules = make_modules(cfg, *this);
   for (auto& m : modules) {
-    if (auto* c = dynamic_cast<ContactForces*>(m.get())) contact = c;
-    if (auto* w = dynamic_cast<PlaneWalls*>(m.get())) walls = w;
-    if (auto* ml = dynamic_cast<Moonlet*>(m.get())) moonlet = ml;
     const unsigned s = m->stages();
     for (int k = 0; k < 6; ++k)
       if (s & (1u << k)) stage_[k].push_back(m.get());
@@ -63,19 +67,21 @@ void Simulation::setup() {
   if (!restored) {
     compute_forces();
     check_initial_overlaps();
-  } else if (contact) {
-    contact->refresh_diagnostics(*this);
   }
 }
 
 void Simulation::check_initial_overlaps() {
   // Overlapping initial particles would start with a violent, unphysical push: refuse them,
   // naming the worst particle (collective: every rank throws the same message).
-  const double worst = contact ? contact->max_overlap_fraction() : 0.0;
+  // Particle pairs only: a particle placed against a wall is the scene's choice.
+  const Module* pairs = nullptr;
+  for (const auto& m : modules)
+    if (m->pair_loop()) pairs = m.get();
+  const double worst = pairs ? pairs->max_overlap_fraction() : 0.0;
   struct { double value; int rank; } local{worst, domain.rank}, global{};
   MPI_Allreduce(&local, &global, 1, MPI_DOUBLE_INT, MPI_MAXLOC, domain.comm);
   if (global.value <= cfg.max_overlap_fraction) return;
-  std::int64_t id = contact && domain.rank == global.rank ? contact->worst_id() : 0;
+  std::int64_t id = pairs && domain.rank == global.rank ? pairs->worst_id() : 0;
   MPI_Bcast(&id, 1, MPI_INT64_T, global.rank, domain.comm);
   std::ostringstream os;
   os << cfg.source << ": key 'particles': initial particles overlap by " << global.value
@@ -128,13 +134,13 @@ void Simulation::rebuild() {
   {
     // Pairs listed up to a_i + a_j + reach + skin: lubrication acts across gaps.
     auto t = timers.scope(StageTimers::Neighbour);
-    neighbors.build(particles, domain, range, skin + cfg.lubrication_reach);
+    neighbors.build(particles, domain, range, skin + cfg.pair_reach);
   }
   if (domain.fed_x && remove_stillborn()) {  // rare: ghosts and list again without them
     halo.shear_energy += potential() - stillborn_potential_;
     particles.permute_local(NeighborList::spatial_order(particles, domain, range));
     halo.build_ghosts(particles);
-    neighbors.build(particles, domain, range, skin + cfg.lubrication_reach);
+    neighbors.build(particles, domain, range, skin + cfg.pair_reach);
   }
   if (domain.nranks > 1) {  // the cost balance the ranks actually ran with (summary.json)
     const double now = domain.imbalance(static_cast<double>(particles.nlocal + neighbors.size()));
@@ -191,7 +197,7 @@ void Simulation::compute_forces() {
     }
   }
   for (Module* m : stage_[1]) {
-    auto t = timers.scope(m == contact ? StageTimers::Pair : StageTimers::Modules);
+    auto t = timers.scope(m->pair_loop() ? StageTimers::Pair : StageTimers::Modules);
     m->force(*this);
   }
 }
@@ -290,7 +296,7 @@ bool Simulation::is_output_step(long step) const {
   return step >= c.nsteps || step % c.observe == 0 || (c.dump && step % c.dump == 0) || (c.snap && step % c.snap == 0);
 }
 
-void Simulation::run(RunOutput* out) {
+void Simulation::run(RunSink* out) {
   const Cadence c = cadence(cfg, dt);
   const long nsteps = c.nsteps, observe_every = c.observe, dump_every = c.dump, snap_every = c.snap;
   long n_total = total_particles();
@@ -372,8 +378,8 @@ double Simulation::kinetic_energy() const {
 }
 
 double Simulation::elastic_energy() const {
-  const double e = contact ? contact->elastic_energy(*this) : 0.0;
-  double g = 0;
+  double e = 0, g = 0;
+  for (const auto& m : modules) e += m->elastic_energy(*this);
   MPI_Allreduce(&e, &g, 1, MPI_DOUBLE, MPI_SUM, domain.comm);
   return g;
 }

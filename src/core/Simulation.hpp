@@ -18,10 +18,7 @@
 
 namespace cassini {
 
-class ContactForces;
-class PlaneWalls;
-class Moonlet;
-class RunOutput;
+class RunSink;
 
 // A guard tripped: every rank throws it on the same step (the verdict is reduced first).
 struct GuardError : std::runtime_error {
@@ -43,7 +40,7 @@ class Simulation {
   bool restart_point = false;  // true during the rebuild a snapshot makes (a restart from it starts alike)
   void step();
   // Steps to cfg.t_end; with `out`, prints progress and writes observables and dumps.
-  void run(RunOutput* out = nullptr);
+  void run(RunSink* out = nullptr);
 
   // Collective reductions over all ranks.
   double kinetic_energy() const;   // translational + rotational
@@ -104,10 +101,10 @@ class Simulation {
   double imbalance_sum = 0, imbalance_worst = 1;
   long imbalance_samples = 0;
 
-  std::vector<std::unique_ptr<Module>> modules;
-  ContactForces* contact = nullptr;  // convenience views into `modules` (may be null)
-  PlaneWalls* walls = nullptr;
-  Moonlet* moonlet = nullptr;
+  std::vector<std::unique_ptr<Module>> modules;  // integrator first, guards last (ModuleRegistry.hpp)
+  // A module with a tangential spring per particle and wall (plane walls, channel faces, the
+  // moonlet) claims n columns of ParticleStore::wall_xi when it is made; the first is returned.
+  int claim_wall_slots(int n);
 
   // Velocity of the imposed flow at x (the Lees-Edwards shear v_x = gamma_dot y; zero otherwise).
   Vec3 imposed_flow(const Vec3& x) const {
@@ -149,7 +146,7 @@ class Simulation {
   std::vector<Module*> stage_[6];
   std::string guard_message_;
   bool guard_dumped_ = false;
-  RunOutput* output_ = nullptr;  // during run(): where a tripped guard dumps its state
+  RunSink* output_ = nullptr;  // during run(): where a tripped guard dumps its state
   double time_at_build_ = 0;
   double stillborn_potential_ = 0;
   friend void read_snapshot(Simulation&, const std::string&);

@@ -92,9 +92,6 @@ RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm, const st
     log_.open(dir + "/run.log");
     obs_.open(dir + "/observables.csv");
     h5obs_ = std::make_unique<ObservablesFile>(dir + "/observables.h5md");
-    obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
-            "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts\n";
-    checked_flush(obs_, "observables.csv");
   }
 }
 
@@ -148,16 +145,12 @@ void RunOutput::observe(Simulation& sim) {
     const Vec3 dv = p.v[i] - mean - sim.imposed_flow(p.x[i]);
     for (int d = 0; d < 3; ++d) local[1 + d] += p.mass[i] * dv[d] * dv[d];
   }
-  local[4] = sim.contact ? double(sim.contact->contacts()) : 0.0;
-  local[5] = sim.contact ? double(sim.contact->take_collisions()) : 0.0;
-  local[6] = sim.contact ? sim.contact->overlap_sum() : 0.0;
-  local[7] = sim.moonlet ? double(sim.moonlet->contacts()) : 0.0;
-  // A 3D ring patch's thickness: the mass-weighted rms height above the mid-plane (the tide's
-  // equilibrium plane), accumulated in local[11].
-  const bool thick = !sim.cfg.planar && sim.cfg.has_module("hill");
-  const double mid = 0.5 * (sim.cfg.lo[2] + sim.cfg.hi[2]);
-  if (thick)
-    for (std::size_t i = 0; i < p.nlocal; ++i) local[11] += p.mass[i] * (p.x[i][2] - mid) * (p.x[i][2] - mid);
+  auto* contact = sim.find<ContactForces>();
+  const auto* moonlet = sim.find<Moonlet>();
+  local[4] = contact ? double(contact->contacts()) : 0.0;
+  local[5] = contact ? double(contact->take_collisions()) : 0.0;
+  local[6] = contact ? contact->overlap_sum() : 0.0;
+  local[7] = moonlet ? double(moonlet->contacts()) : 0.0;
   if (p.copies) {  // modified Lees-Edwards boundaries: LE1's population and the feed's counts
     for (std::size_t i = 0; i < p.nlocal; ++i) local[8] += p.le_copy[i] == 0;
     local[9] = double(sim.halo.fed);
@@ -165,14 +158,25 @@ void RunOutput::observe(Simulation& sim) {
   }
   double sums[12];
   MPI_Allreduce(local, sums, 12, MPI_DOUBLE, MPI_SUM, comm_);
-  double overlap = sim.contact ? sim.contact->max_overlap_fraction() : 0.0, max_overlap = 0;
+  double overlap = contact ? contact->max_overlap_fraction() : 0.0, max_overlap = 0;
   MPI_Allreduce(&overlap, &max_overlap, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  std::vector<std::pair<std::string, double>> own;  // the modules' own columns (collective)
+  for (const auto& m : sim.modules) m->observables(sim, own);
   if (rank_ != 0) return;
+  if (!header_written_) {
+    obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
+            "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts";
+    for (const auto& [name, value] : own) obs_ << "," << name;
+    obs_ << "\n";
+    header_written_ = true;
+  }
   const double contacts = sums[4];
   obs_ << std::setprecision(12) << sim.step_count << "," << sim.time << "," << n << "," << ke << "," << pe << ","
        << mom[0] << "," << mom[1] << "," << mom[2] << "," << sums[1] / mass << "," << sums[2] / mass << ","
        << sums[3] / mass << "," << contacts / 2 << "," << sums[5] << "," << (contacts > 0 ? sums[6] / contacts : 0.0)
-       << "," << max_overlap << "," << sums[7] << "\n";
+       << "," << max_overlap << "," << sums[7];
+  for (const auto& [name, value] : own) obs_ << "," << value;
+  obs_ << "\n";
   checked_flush(obs_, "observables.csv");
   // Granular temperature: the mean velocity variance over the axes that move.
   const int dims = sim.cfg.planar ? 2 : 3;
@@ -188,7 +192,7 @@ void RunOutput::observe(Simulation& sim) {
                   {"mean_overlap_over_radius", {contacts > 0 ? sums[6] / contacts : 0.0}},
                   {"max_overlap_over_radius", {max_overlap}},
                   {"moonlet_contacts", {sums[7]}}};
-  if (thick) row.push_back({"ring_thickness", {std::sqrt(sums[11] / mass)}});
+  for (const auto& [name, value] : own) row.push_back({name, {value}});
   if (p.copies)
     row.insert(row.end(), {{"le1_particles", {sums[8]}}, {"fed_into_le1", {sums[9]}}, {"drained_from_le1", {sums[10]}}});
   h5obs_->append(sim.step_count, sim.time, row);

@@ -10,6 +10,7 @@
 
 #include <mpi.h>
 
+#include "core/RunSink.hpp"
 #include "io/ObservablesFile.hpp"
 
 namespace cassini {
@@ -19,31 +20,32 @@ class Simulation;
 std::string json_number(double v);         // "null" for inf and NaN
 std::string json_string(const std::string& text);
 
-class RunOutput {
+class RunOutput : public RunSink {
  public:
   // Creates `dir` (marked as a run directory). Refuses, before touching anything: a file,
   // the working directory or a parent, a directory holding any of `keep` (the case file,
   // the restart snapshot), a non-empty directory without --force, and with --force one that
   // cassini did not make.
   RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<std::string>& keep = {});
-  void log(const std::string& line);                 // rank 0: stdout and run.log
+  void log(const std::string& line) override;        // rank 0: stdout and run.log
   void log_only(const std::string& line);            // rank 0: run.log (already on stderr)
   void write_text(const std::string& name, const std::string& text);  // rank 0
-  void observe(Simulation& sim);                     // collective: one observables row
-  void dump(const Simulation& sim, const std::string& tag);  // every rank its own file
+  void observe(Simulation& sim) override;            // collective: one observables row
+  void dump(const Simulation& sim, const std::string& tag) override;  // every rank its own file
   // Collective. status: "completed", "stopped by a guard" or "error"; reason: why it ended.
   void summary(Simulation& sim, double wall_seconds, long steps_run, const std::string& status,
                const std::string& reason);
   void error_summary(const std::string& reason);     // rank 0: an error before or outside the step loop
   // Rank 0, after summary(): the table of time per stage of the step (Simulation::timers).
   const std::string& timing() const { return timing_; }
-  void snapshot(Simulation& sim);                    // collective: dir/snap_<step>.h5md
+  void snapshot(Simulation& sim) override;           // collective: dir/snap_<step>.h5md
   const std::string& dir() const { return dir_; }
   std::string case_text;                             // resolved case, stored in snapshots
   std::string run_id;                                // names the run in snapshots (kept on restart)
 
  private:
   std::string timing_;
+  bool header_written_ = false;  // observables.csv: its header names the modules' columns too
   void checked_flush(std::ofstream& out, const std::string& name);  // a failed write ends the job
   std::string dir_;
   int rank_ = 0;

@@ -18,6 +18,7 @@
 #include "core/CaseFile.hpp"
 #include "io/Hdf5Handle.hpp"
 #include "io/IoFailure.hpp"
+#include "io/SnapshotSchema.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
 
@@ -111,48 +112,32 @@ void double_column(hid_t g, const std::string& name, const Rows& r, const std::v
   rows_dataset(g, name, H5T_NATIVE_DOUBLE, r.total, r.offset, r.rows, 1, col.data(), dxpl, false);
 }
 
-double id_bits(std::int64_t id) { double d; std::memcpy(&d, &id, 8); return d; }
-std::int64_t bits_id(double d) { std::int64_t i; std::memcpy(&i, &d, 8); return i; }
-
 }  // namespace
 
-std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text,
-                           const std::string& run_id) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  sim.restart_point = true;  // a restart starts with a rebuild (and module setup): do the same
-  sim.rebuild();             // here, so that both continue alike
-  sim.restart_point = false;
+namespace {
+
+// Every rank's particle rows, redistributed into blocks of ids and ordered by id within its
+// block: the file's rows are in id order whatever the rank count. Returns this rank's rows,
+// `width` doubles each, in the order of `columns`.
+std::vector<double> rows_by_id(const Simulation& sim, const std::vector<GrainColumn>& columns, std::size_t width) {
   const ParticleStore& p = sim.particles;
   const Decomposition& dom = sim.domain;
   const int P = dom.nranks;
-  const int nw = p.rotation ? p.walls : 0;
-  const int ni = p.impacts ? p.walls : 0, nr = p.rolling ? p.walls : 0;
-  // Row: id, species, radius, mass, x, v, f, [omega, torque], [wall_xi * nw], [wall_impact * ni],
-  // [wall_roll * nr], body force, [copy]
-  const std::size_t tail = 4 + 9 + (p.rotation ? 6 : 0) + 3 * nw + ni + 3 * nr + 3;
-  const std::size_t width = tail + (p.copies ? 1 : 0);
-  std::vector<Vec3> body(p.nlocal, Vec3::Zero());  // the non-contact forces, for cassini-cg (3.34)
+  std::vector<Vec3> body(p.nlocal, Vec3::Zero());
   for (const auto& m : sim.modules) m->add_body_forces(sim, body);
-
-  // Redistribute rows into id blocks so that rows come out ordered by id.
   std::int64_t max_local = -1, max_id = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) max_local = std::max(max_local, p.id[i]);
   MPI_Allreduce(&max_local, &max_id, 1, MPI_INT64_T, MPI_MAX, dom.comm);
   std::vector<std::vector<double>> out(P);
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const int b = static_cast<int>(static_cast<long double>(p.id[i]) * P / (max_id + 1));
-    auto& r = out[b];
-    r.insert(r.end(), {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i]});
-    for (const Vec3* q : {&p.x[i], &p.v[i], &p.f[i]}) r.insert(r.end(), q->data(), q->data() + 3);
-    if (p.rotation) {
-      r.insert(r.end(), p.omega[i].data(), p.omega[i].data() + 3);
-      r.insert(r.end(), p.torque[i].data(), p.torque[i].data() + 3);
-      for (int w = 0; w < nw; ++w) r.insert(r.end(), p.wall_xi[i * nw + w].data(), p.wall_xi[i * nw + w].data() + 3);
+    auto& r = out[static_cast<int>(static_cast<long double>(p.id[i]) * P / (max_id + 1))];
+    const std::size_t at = r.size();
+    r.resize(at + width);
+    double* row = &r[at];
+    for (const auto& c : columns) {
+      c.pack(p, body, i, row);
+      row += c.width;
     }
-    for (int w = 0; w < ni; ++w) r.push_back(p.wall_impact[i * ni + w]);
-    for (int w = 0; w < nr; ++w) r.insert(r.end(), p.wall_roll[i * nr + w].data(), p.wall_roll[i * nr + w].data() + 3);
-    r.insert(r.end(), body[i].data(), body[i].data() + 3);
-    if (p.copies) r.push_back(p.le_copy[i]);
   }
   std::vector<int> sc(P), rc(P), sd(P), rd(P);
   std::vector<double> sendbuf, in;
@@ -170,337 +155,288 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return bits_id(in[a * width]) < bits_id(in[b * width]); });
+  std::vector<double> sorted(in.size());
+  for (std::size_t k = 0; k < n; ++k) std::copy_n(&in[order[k] * width], width, &sorted[k * width]);
+  return sorted;
+}
 
-  const Rows block = my_rows(n, dom.comm);
-  const hsize_t total = block.total, offset = block.offset;
-
-  // Column arrays in id order.
-  std::vector<std::int64_t> ids(n);
-  std::vector<std::int32_t> species(n), copy(p.copies ? n : 0);
-  std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n), w(p.rotation ? 3 * n : 0),
-      t(p.rotation ? 3 * n : 0), wx(3 * nw * n), wi(ni * n), wr(3 * nr * n), bf(3 * n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const double* r = &in[order[k] * width];
-    ids[k] = bits_id(r[0]);
-    species[k] = static_cast<std::int32_t>(r[1]);
-    radius[k] = r[2];
-    mass[k] = r[3];
-    for (int c = 0; c < 3; ++c) {
-      x[3 * k + c] = r[4 + c];
-      v[3 * k + c] = r[7 + c];
-      f[3 * k + c] = r[10 + c];
-      if (p.rotation) { w[3 * k + c] = r[13 + c]; t[3 * k + c] = r[16 + c]; }
-    }
-    for (int c = 0; c < 3 * nw; ++c) wx[3 * nw * k + c] = r[19 + c];
-    for (int c = 0; c < ni; ++c) wi[ni * k + c] = r[tail - 3 - 3 * nr - ni + c];
-    for (int c = 0; c < 3 * nr; ++c) wr[3 * nr * k + c] = r[tail - 3 - 3 * nr + c];
-    for (int c = 0; c < 3; ++c) bf[3 * k + c] = r[tail - 3 + c];
-    if (p.copies) copy[k] = static_cast<std::int32_t>(r[tail]);
+// particles/grains/<column>: one H5MD element per column of the schema.
+void write_grains(hid_t grains, const std::vector<GrainColumn>& columns, const std::vector<double>& rows,
+                  std::size_t width, const std::string& file, const Simulation& sim, hid_t dxpl) {
+  const std::size_t n = rows.size() / width;
+  const Rows block = my_rows(n, sim.domain.comm);
+  std::size_t first = 0;
+  for (const auto& c : columns) {
+    std::vector<double> real;
+    std::vector<std::int64_t> i64;
+    std::vector<std::int32_t> i32;
+    const void* data = nullptr;
+    for (std::size_t k = 0; k < n; ++k)
+      for (int q = 0; q < c.width; ++q) {
+        const double v = rows[k * width + first + q];
+        if (c.type == GrainColumn::Int64) i64.push_back(bits_id(v));
+        else if (c.type == GrainColumn::Int32) i32.push_back(static_cast<std::int32_t>(v));
+        else real.push_back(v);
+      }
+    data = c.type == GrainColumn::Int64 ? static_cast<const void*>(i64.data())
+           : c.type == GrainColumn::Int32 ? static_cast<const void*>(i32.data()) : static_cast<const void*>(real.data());
+    element(grains, c.name, c.hdf5_type(), block.total, block.offset, block.rows, c.width, data, sim.step_count, sim.time, dxpl);
+    if (first == 0 && injected_write_failure(file, sim.domain.rank))
+      io_failure(file, "No space left on device (injected by CASSINI_FAIL_WRITE)");
+    first += c.width;
   }
+}
 
-  std::ostringstream name;
-  name << dir << "/snap_" << std::setw(9) << std::setfill('0') << sim.step_count << ".h5md";
-  const std::string final_name = name.str(), tmp = final_name + ".partial";
-
+// particles/grains/box (and lees_edwards/ in sheared runs).
+void write_box(hid_t grains, const Simulation& sim, hid_t dxpl) {
+  const Decomposition& dom = sim.domain;
+  const std::int64_t step = sim.step_count;
+  const double time = sim.time;
   {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // a failure is reported once, by io_failure
-    const h5::WriteScope writing(tmp);
-    Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "fapl");
-    check(H5Pset_fapl_mpio(fapl, dom.comm, MPI_INFO_NULL), "mpio");
-    Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose, "create " + tmp);
-    Handle dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, "dxpl");
-    check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "collective");
-    const long step = sim.step_count;
-    const double time = sim.time;
-    h5::h5md_header(file);
-    Handle particles = group(file, "particles");
-    Handle grains = group(particles, "grains");
-    const hsize_t N = total, off = offset, rows = n;
-    element(grains, "position", H5T_NATIVE_DOUBLE, N, off, rows, 3, x.data(), step, time, dxpl);
-    element(grains, "velocity", H5T_NATIVE_DOUBLE, N, off, rows, 3, v.data(), step, time, dxpl);
-    if (injected_write_failure(tmp, dom.rank)) io_failure(tmp, "No space left on device (injected by CASSINI_FAIL_WRITE)");
-    element(grains, "force", H5T_NATIVE_DOUBLE, N, off, rows, 3, f.data(), step, time, dxpl);
-    element(grains, "body_force", H5T_NATIVE_DOUBLE, N, off, rows, 3, bf.data(), step, time, dxpl);
-    element(grains, "id", H5T_NATIVE_INT64, N, off, rows, 1, ids.data(), step, time, dxpl);
-    element(grains, "species", H5T_NATIVE_INT32, N, off, rows, 1, species.data(), step, time, dxpl);
-    element(grains, "radius", H5T_NATIVE_DOUBLE, N, off, rows, 1, radius.data(), step, time, dxpl);
-    element(grains, "mass", H5T_NATIVE_DOUBLE, N, off, rows, 1, mass.data(), step, time, dxpl);
-    if (p.rotation) {
-      element(grains, "omega", H5T_NATIVE_DOUBLE, N, off, rows, 3, w.data(), step, time, dxpl);
-      element(grains, "torque", H5T_NATIVE_DOUBLE, N, off, rows, 3, t.data(), step, time, dxpl);
-      if (nw > 0) element(grains, "wall_xi", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nw, wx.data(), step, time, dxpl);
-    }
-    if (ni > 0) element(grains, "wall_impact", H5T_NATIVE_DOUBLE, N, off, rows, ni, wi.data(), step, time, dxpl);
-    if (nr > 0) element(grains, "wall_roll", H5T_NATIVE_DOUBLE, N, off, rows, 3 * nr, wr.data(), step, time, dxpl);
-    // Modified Lees-Edwards boundaries: 0 = LE1 (the main box), 1 = LE2 (the moonlet-free feed).
-    if (p.copies) element(grains, "le_copy", H5T_NATIVE_INT32, N, off, rows, 1, copy.data(), step, time, dxpl);
-    {
-      Handle box = group(grains, "box");
-      attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
-      std::string bounds;
-      for (int d = 0; d < 3; ++d) bounds += std::string(d ? "," : "") + (dom.periodic(d) || (d == 1 && dom.shear.enabled) ? "periodic" : "none");
-      attr_string(box, "boundary", bounds);
-      // Edge vectors as rows; the Lees-Edwards offset is the xy tilt (wrapped to [-Lx/2, Lx/2)).
-      double tilt = 0;
-      if (dom.shear.enabled) {
-        tilt = dom.shear.wrapped(dom.length[0]);
-        if (tilt >= 0.5 * dom.length[0]) tilt -= dom.length[0];
-      }
-      const double edges[9] = {dom.length[0], 0, 0, tilt, dom.length[1], 0, 0, 0, dom.length[2]};
-      Handle eg = group(box, "edges");
-      const std::int64_t s = step;
-      small_dataset(eg, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
-      small_dataset(eg, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
-      small_dataset(eg, "value", H5T_NATIVE_DOUBLE, {1, 3, 3}, edges, dxpl);
-      const double lo[3] = {dom.lo[0], dom.lo[1], dom.lo[2]};
-      small_dataset(box, "origin", H5T_NATIVE_DOUBLE, {3}, lo, dxpl);
-    }
+    Handle box = group(grains, "box");
+    attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
+    std::string bounds;
+    for (int d = 0; d < 3; ++d) bounds += std::string(d ? "," : "") + (dom.periodic(d) || (d == 1 && dom.shear.enabled) ? "periodic" : "none");
+    attr_string(box, "boundary", bounds);
+    // Edge vectors as rows; the Lees-Edwards offset is the xy tilt (wrapped to [-Lx/2, Lx/2)).
+    double tilt = 0;
     if (dom.shear.enabled) {
-      Handle le = group(grains, "lees_edwards");
-      const std::int64_t s = step;
-      const double offset_unwrapped = dom.shear.offset;
-      const std::int32_t direction = 0, normal = 1;
-      for (const char* nm : {"offset", "direction", "normal"}) {
-        Handle g = group(le, nm);
-        small_dataset(g, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
-        small_dataset(g, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
-        if (std::string(nm) == "offset") small_dataset(g, "value", H5T_NATIVE_DOUBLE, {1}, &offset_unwrapped, dxpl);
-        else small_dataset(g, "value", H5T_NATIVE_INT32, {1}, nm[0] == 'd' ? &direction : &normal, dxpl);
-      }
+      tilt = dom.shear.wrapped(dom.length[0]);
+      if (tilt >= 0.5 * dom.length[0]) tilt -= dom.length[0];
     }
-    {  // contact history (springs with friction, impact speeds under Bridges): each rank its own block
-      std::vector<HistoryEntry> springs;
-      if (sim.contact) sim.contact->springs(sim, springs);
-      Handle cg = group(file, "contacts");
-      const Rows sr = my_rows(springs.size(), dom.comm);
-      id_column(cg, "owner", sr, springs, &HistoryEntry::owner, dxpl);
-      id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
-      vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
-      double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
-      vec3_column(cg, "roll", sr, springs, &HistoryEntry::roll, dxpl);
-      // Pair forces for stress (each pair once; contacts and lubrication): ids, position of i,
-      // branch r_i - r_j, force on i. Wall contacts: particle id, contact point, branch, force.
-      std::vector<PairForce> pairs;
-      std::vector<WallForce> walls;
-      for (const auto& mod : sim.modules) {
-        mod->pair_forces(sim, pairs);
-        mod->wall_forces(sim, walls);
-      }
-      const Rows pr = my_rows(pairs.size(), dom.comm);
-      std::vector<std::int64_t> ids(2 * pairs.size());
-      for (std::size_t k = 0; k < pairs.size(); ++k) {
-        ids[2 * k] = pairs[k].i;
-        ids[2 * k + 1] = pairs[k].j;
-      }
-      rows_dataset(cg, "pair_ids", H5T_NATIVE_INT64, pr.total, pr.offset, pr.rows, 2, ids.data(), dxpl, false);
-      vec3_column(cg, "position_i", pr, pairs, &PairForce::xi, dxpl);
-      vec3_column(cg, "branch", pr, pairs, &PairForce::branch, dxpl);
-      vec3_column(cg, "force", pr, pairs, &PairForce::force, dxpl);
-      const Rows wr = my_rows(walls.size(), dom.comm);
-      id_column(cg, "wall_particle", wr, walls, &WallForce::i, dxpl);
-      vec3_column(cg, "wall_point", wr, walls, &WallForce::point, dxpl);
-      vec3_column(cg, "wall_branch", wr, walls, &WallForce::branch, dxpl);
-      vec3_column(cg, "wall_force", wr, walls, &WallForce::force, dxpl);
-    }
-    {
-      // Run state a restart needs beyond the particles (module counters and timers, the
-      // outlet counts), and the run's results so far (a clogging run's s, clog time, ...).
-      std::vector<std::pair<std::string, double>> state;
-      for (const auto& m : sim.modules) m->save_state(state);
-      long long counts[2] = {sim.halo.removed, sim.halo.removed_upper}, total[2];
-      MPI_Allreduce(counts, total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
-      state.push_back({"halo.removed", double(total[0])});
-      state.push_back({"halo.removed_upper", double(total[1])});
-      if (dom.fed_x) {  // the same on every rank
-        long long fed[2] = {sim.halo.fed, sim.halo.drained}, fed_total[2];
-        MPI_Allreduce(fed, fed_total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
-        state.push_back({"halo.next_id", double(sim.halo.next_id)});
-        state.push_back({"halo.fed", double(fed_total[0])});
-        state.push_back({"halo.drained", double(fed_total[1])});
-      }
-      Handle pg = group(file, "parameters");
-      Handle sg = group(pg, "state");
-      for (const auto& [key, value] : state) small_dataset(sg, key, H5T_NATIVE_DOUBLE, {1}, &value, dxpl);
-      Handle rg = group(file, "results");
-      for (const auto& [key, json] : sim.results) {
-        char* end = nullptr;
-        const double v = std::strtod(json.c_str(), &end);
-        if (!json.empty() && end == json.c_str() + json.size()) attr_array<double>(rg, key, H5T_NATIVE_DOUBLE, {v});
-        else if (json == "true" || json == "false") attr_array<int>(rg, key, H5T_NATIVE_INT, {json == "true"});
-        else attr_string(rg, key, json.size() >= 2 && json.front() == '"' ? json.substr(1, json.size() - 2) : json);
-      }
-    }
-    {
-      Handle params(H5Gopen2(file, "parameters", H5P_DEFAULT), H5Gclose, "group parameters");
-      attr_string(params, "case", case_text);
-      if (!run_id.empty()) attr_string(params, "run_id", run_id);
-      // The contact scheme in force (the case may leave it to the default, which has changed).
-      attr_string(params, "contact_scheme", sim.cfg.exact_contacts ? "exact" : "verlet");
-      attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
-      const double state[3] = {time, dom.shear.offset, sim.dt};
-      small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, state, dxpl);
-      const double rate = dom.shear.enabled ? dom.shear.rate : 0.0;
-      small_dataset(params, "shear_rate", H5T_NATIVE_DOUBLE, {1}, &rate, dxpl);
-      const std::int32_t planar = dom.dims == 2;
-      small_dataset(params, "planar", H5T_NATIVE_INT32, {1}, &planar, dxpl);
-      // Angular velocity of the frame (Omega0 in the Hill frame, else 0): cassini-cg's T0 unit.
-      const double frame_rotation = sim.cfg.has_module("hill") ? sim.cfg.omega0() : 0.0;
-      small_dataset(params, "frame_rotation", H5T_NATIVE_DOUBLE, {1}, &frame_rotation, dxpl);
-      const std::int64_t s = step;
-      small_dataset(params, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
-      attr_string(params, "complete", "yes");  // last thing written
-    }
-    grains.close_checked("close particles/grains");  // a file closes only once nothing in it is open
-    particles.close_checked("close particles");
-    file.close_checked("close " + tmp);  // the metadata reaches the disk here: check it
+    const double edges[9] = {dom.length[0], 0, 0, tilt, dom.length[1], 0, 0, 0, dom.length[2]};
+    Handle eg = group(box, "edges");
+    small_dataset(eg, "step", H5T_NATIVE_INT64, {1}, &step, dxpl);
+    small_dataset(eg, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+    small_dataset(eg, "value", H5T_NATIVE_DOUBLE, {1, 3, 3}, edges, dxpl);
+    const double lo[3] = {dom.lo[0], dom.lo[1], dom.lo[2]};
+    small_dataset(box, "origin", H5T_NATIVE_DOUBLE, {3}, lo, dxpl);
   }
-  MPI_Barrier(dom.comm);
-  if (dom.rank == 0) {
-    std::filesystem::rename(tmp, final_name);
-    // XDMF sidecar: ParaView opens the particles as points with their scalars.
-    std::ofstream xm(final_name.substr(0, final_name.size() - 5) + ".xdmf");
-    const std::string h5 = std::filesystem::path(final_name).filename().string();
-    xm << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"grains\" GridType=\"Uniform\">\n"
-       << "   <Time Value=\"" << sim.time << "\"/>\n"
-       << "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << total << "\"/>\n"
-       << "   <Geometry GeometryType=\"XYZ\">\n    <DataItem Dimensions=\"1 " << total
-       << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/position/value</DataItem>\n   </Geometry>\n";
-    for (const char* s : {"radius", "mass"})
-      xm << "   <Attribute Name=\"" << s << "\" Center=\"Node\">\n    <DataItem Dimensions=\"1 " << total
-         << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/" << s
-         << "/value</DataItem>\n   </Attribute>\n";
-    xm << "   <Attribute Name=\"velocity\" Center=\"Node\" AttributeType=\"Vector\">\n    <DataItem Dimensions=\"1 " << total
-       << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/velocity/value</DataItem>\n   </Attribute>\n";
-    xm << "  </Grid>\n </Domain>\n</Xdmf>\n";
-    xm.close();
-    if (!xm) {
-      const std::string side = final_name.substr(0, final_name.size() - 5) + ".xdmf";
-      io_failure(side, os_write_reason(side));
-    }
+  if (!dom.shear.enabled) return;
+  Handle le = group(grains, "lees_edwards");
+  const double offset_unwrapped = dom.shear.offset;
+  const std::int32_t direction = 0, normal = 1;
+  for (const char* nm : {"offset", "direction", "normal"}) {
+    Handle g = group(le, nm);
+    small_dataset(g, "step", H5T_NATIVE_INT64, {1}, &step, dxpl);
+    small_dataset(g, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+    if (std::string(nm) == "offset") small_dataset(g, "value", H5T_NATIVE_DOUBLE, {1}, &offset_unwrapped, dxpl);
+    else small_dataset(g, "value", H5T_NATIVE_INT32, {1}, nm[0] == 'd' ? &direction : &normal, dxpl);
   }
-  MPI_Barrier(dom.comm);
-  return final_name;
 }
 
-namespace {
-
-// Reads rows [offset, offset + rows) of dataset `path` (frame axis first when present).
-void read_rows(hid_t file, const std::string& path, hid_t type, hsize_t offset, hsize_t rows, hsize_t width,
-               void* data, hid_t dxpl, bool frame_axis = true) {
-  Handle d(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose, "missing dataset " + path);
-  Handle fs(H5Dget_space(d), H5Sclose, "space");
-  std::vector<hsize_t> start, count;
-  if (frame_axis) { start.push_back(0); count.push_back(1); }
-  start.push_back(offset); count.push_back(rows);
-  if (width > 1) { start.push_back(0); count.push_back(width); }
-  Handle mem(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose, "mem");
-  if (rows == 0) {
-    check(H5Sselect_none(fs), "none");
-    check(H5Sselect_none(mem), "none");
-  } else {
-    check(H5Sselect_hyperslab(fs, H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), "hyperslab " + path);
+// contacts/: the contact history a restart needs (each rank its own block), then the pair and
+// wall forces for stress (each pair once; contacts and lubrication): ids, position of i,
+// branch r_i - r_j, force on i; wall contacts: particle id, contact point, branch, force.
+void write_contacts(hid_t file, const Simulation& sim, hid_t dxpl) {
+  const MPI_Comm comm = sim.domain.comm;
+  std::vector<HistoryEntry> springs;
+  if (const auto* c = sim.find<ContactForces>()) c->springs(sim, springs);
+  Handle cg = group(file, "contacts");
+  const Rows sr = my_rows(springs.size(), comm);
+  id_column(cg, "owner", sr, springs, &HistoryEntry::owner, dxpl);
+  id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
+  vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
+  double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
+  vec3_column(cg, "roll", sr, springs, &HistoryEntry::roll, dxpl);
+  std::vector<PairForce> pairs;
+  std::vector<WallForce> walls;
+  for (const auto& mod : sim.modules) {
+    mod->pair_forces(sim, pairs);
+    mod->wall_forces(sim, walls);
   }
-  hsize_t dims[4] = {0, 0, 0, 0};
-  H5Sget_simple_extent_dims(fs, dims, nullptr);
-  if (dims[frame_axis ? 1 : 0] == 0) return;
-  static double dummy[3];
-  check(H5Dread(d, type, mem, fs, dxpl, data ? data : dummy), "read " + path);
+  const Rows pr = my_rows(pairs.size(), comm);
+  std::vector<std::int64_t> ids(2 * pairs.size());
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    ids[2 * k] = pairs[k].i;
+    ids[2 * k + 1] = pairs[k].j;
+  }
+  rows_dataset(cg, "pair_ids", H5T_NATIVE_INT64, pr.total, pr.offset, pr.rows, 2, ids.data(), dxpl, false);
+  vec3_column(cg, "position_i", pr, pairs, &PairForce::xi, dxpl);
+  vec3_column(cg, "branch", pr, pairs, &PairForce::branch, dxpl);
+  vec3_column(cg, "force", pr, pairs, &PairForce::force, dxpl);
+  const Rows wr = my_rows(walls.size(), comm);
+  id_column(cg, "wall_particle", wr, walls, &WallForce::i, dxpl);
+  vec3_column(cg, "wall_point", wr, walls, &WallForce::point, dxpl);
+  vec3_column(cg, "wall_branch", wr, walls, &WallForce::branch, dxpl);
+  vec3_column(cg, "wall_force", wr, walls, &WallForce::force, dxpl);
 }
 
-hsize_t extent(hid_t file, const std::string& path, int axis) {
-  Handle d(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose, "missing dataset " + path);
-  Handle fs(H5Dget_space(d), H5Sclose, "space");
-  hsize_t dims[4] = {0, 0, 0, 0};
-  H5Sget_simple_extent_dims(fs, dims, nullptr);
-  return dims[axis];
+// parameters/: run state a restart needs beyond the particles (module counters and timers, the
+// outlet counts), the run's results so far (results/), and what describes the run. The
+// attribute `complete` is the last thing written.
+void write_parameters(hid_t file, const Simulation& sim, const std::string& case_text, const std::string& run_id,
+                      hid_t dxpl) {
+  const Decomposition& dom = sim.domain;
+  std::vector<std::pair<std::string, double>> state;
+  for (const auto& m : sim.modules) m->save_state(state);
+  long long counts[2] = {sim.halo.removed, sim.halo.removed_upper}, total[2];
+  MPI_Allreduce(counts, total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
+  state.push_back({"halo.removed", double(total[0])});
+  state.push_back({"halo.removed_upper", double(total[1])});
+  if (dom.fed_x) {  // the same on every rank
+    long long fed[2] = {sim.halo.fed, sim.halo.drained}, fed_total[2];
+    MPI_Allreduce(fed, fed_total, 2, MPI_LONG_LONG, MPI_SUM, dom.comm);
+    state.push_back({"halo.next_id", double(sim.halo.next_id)});
+    state.push_back({"halo.fed", double(fed_total[0])});
+    state.push_back({"halo.drained", double(fed_total[1])});
+  }
+  Handle params = group(file, "parameters");
+  {
+    Handle sg = group(params, "state");
+    for (const auto& [key, value] : state) small_dataset(sg, key, H5T_NATIVE_DOUBLE, {1}, &value, dxpl);
+    Handle rg = group(file, "results");
+    for (const auto& [key, json] : sim.results) {
+      char* end = nullptr;
+      const double v = std::strtod(json.c_str(), &end);
+      if (!json.empty() && end == json.c_str() + json.size()) attr_array<double>(rg, key, H5T_NATIVE_DOUBLE, {v});
+      else if (json == "true" || json == "false") attr_array<int>(rg, key, H5T_NATIVE_INT, {json == "true"});
+      else attr_string(rg, key, json.size() >= 2 && json.front() == '"' ? json.substr(1, json.size() - 2) : json);
+    }
+  }
+  attr_string(params, "case", case_text);
+  if (!run_id.empty()) attr_string(params, "run_id", run_id);
+  // The contact scheme in force (the case may leave it to the default, which has changed).
+  attr_string(params, "contact_scheme", sim.cfg.exact_contacts ? "exact" : "verlet");
+  attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
+  const double now[3] = {sim.time, dom.shear.offset, sim.dt};
+  small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, now, dxpl);
+  const double rate = dom.shear.enabled ? dom.shear.rate : 0.0;
+  small_dataset(params, "shear_rate", H5T_NATIVE_DOUBLE, {1}, &rate, dxpl);
+  const std::int32_t planar = dom.dims == 2;
+  small_dataset(params, "planar", H5T_NATIVE_INT32, {1}, &planar, dxpl);
+  // Angular velocity of the frame (Omega0 in the Hill frame, else 0): cassini-cg's T0 unit.
+  small_dataset(params, "frame_rotation", H5T_NATIVE_DOUBLE, {1}, &sim.cfg.frame_rotation, dxpl);
+  const std::int64_t s = sim.step_count;
+  small_dataset(params, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
+  attr_string(params, "complete", "yes");  // last thing written
+}
+
+// XDMF sidecar (rank 0): ParaView opens the particles as points with their scalars.
+void write_xdmf(const std::string& final_name, double time, hsize_t total) {
+  const std::string side = final_name.substr(0, final_name.size() - 5) + ".xdmf";
+  std::ofstream xm(side);
+  const std::string h5 = std::filesystem::path(final_name).filename().string();
+  xm << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"grains\" GridType=\"Uniform\">\n"
+     << "   <Time Value=\"" << time << "\"/>\n"
+     << "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << total << "\"/>\n"
+     << "   <Geometry GeometryType=\"XYZ\">\n    <DataItem Dimensions=\"1 " << total
+     << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/position/value</DataItem>\n   </Geometry>\n";
+  for (const char* s : {"radius", "mass"})
+    xm << "   <Attribute Name=\"" << s << "\" Center=\"Node\">\n    <DataItem Dimensions=\"1 " << total
+       << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/" << s
+       << "/value</DataItem>\n   </Attribute>\n";
+  xm << "   <Attribute Name=\"velocity\" Center=\"Node\" AttributeType=\"Vector\">\n    <DataItem Dimensions=\"1 " << total
+     << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << h5 << ":/particles/grains/velocity/value</DataItem>\n   </Attribute>\n";
+  xm << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  xm.close();
+  if (!xm) io_failure(side, os_write_reason(side));
 }
 
 }  // namespace
 
+std::string write_snapshot(Simulation& sim, const std::string& dir, const std::string& case_text,
+                           const std::string& run_id) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // a failure is reported once, by io_failure
+  sim.restart_point = true;  // a restart starts with a rebuild (and module setup): do the same
+  sim.rebuild();             // here, so that both continue alike
+  sim.restart_point = false;
+  const std::vector<GrainColumn> columns = grain_columns(sim.particles);
+  std::size_t width = 0;
+  for (const auto& c : columns) width += c.width;
+  const std::vector<double> rows = rows_by_id(sim, columns, width);
+
+  std::ostringstream name;
+  name << dir << "/snap_" << std::setw(9) << std::setfill('0') << sim.step_count << ".h5md";
+  const std::string final_name = name.str(), tmp = final_name + ".partial";
+  {
+    const h5::WriteScope writing(tmp);
+    Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "fapl");
+    check(H5Pset_fapl_mpio(fapl, sim.domain.comm, MPI_INFO_NULL), "mpio");
+    Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), H5Fclose, "create " + tmp);
+    Handle dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, "dxpl");
+    check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "collective");
+    h5::h5md_header(file);
+    Handle particles = group(file, "particles");
+    Handle grains = group(particles, "grains");
+    write_grains(grains, columns, rows, width, tmp, sim, dxpl);
+    write_box(grains, sim, dxpl);
+    write_contacts(file, sim, dxpl);
+    write_parameters(file, sim, case_text, run_id, dxpl);
+    grains.close_checked("close particles/grains");  // a file closes only once nothing in it is open
+    particles.close_checked("close particles");
+    file.close_checked("close " + tmp);  // the metadata reaches the disk here: check it
+  }
+  const long total = sim.total_particles();
+  MPI_Barrier(sim.domain.comm);
+  if (sim.domain.rank == 0) {
+    std::filesystem::rename(tmp, final_name);
+    write_xdmf(final_name, sim.time, hsize_t(total));
+  }
+  MPI_Barrier(sim.domain.comm);
+  return final_name;
+}
+
 void read_snapshot(Simulation& sim, const std::string& path) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const Decomposition& dom = sim.domain;
   ParticleStore& p = sim.particles;
   try {
-    Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "fapl");
-    check(H5Pset_fapl_mpio(fapl, dom.comm, MPI_INFO_NULL), "mpio");
-    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl), H5Fclose, "open");
-    if (H5Aexists_by_name(file, "parameters", "complete", H5P_DEFAULT) <= 0) throw std::runtime_error("incomplete");
-    Handle dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, "dxpl");
-    check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "collective");
-    const hsize_t N = extent(file, "particles/grains/position/value", 1);
-    const hsize_t lo = N * dom.rank / dom.nranks, hi = N * (dom.rank + 1) / dom.nranks, n = hi - lo;
-    std::vector<std::int64_t> ids(n);
-    std::vector<std::int32_t> species(n);
-    std::vector<double> radius(n), mass(n), x(3 * n), v(3 * n), f(3 * n);
-    const std::string g = "particles/grains/";
-    read_rows(file, g + "id/value", H5T_NATIVE_INT64, lo, n, 1, ids.data(), dxpl);
-    read_rows(file, g + "species/value", H5T_NATIVE_INT32, lo, n, 1, species.data(), dxpl);
-    read_rows(file, g + "radius/value", H5T_NATIVE_DOUBLE, lo, n, 1, radius.data(), dxpl);
-    read_rows(file, g + "mass/value", H5T_NATIVE_DOUBLE, lo, n, 1, mass.data(), dxpl);
-    read_rows(file, g + "position/value", H5T_NATIVE_DOUBLE, lo, n, 3, x.data(), dxpl);
-    read_rows(file, g + "velocity/value", H5T_NATIVE_DOUBLE, lo, n, 3, v.data(), dxpl);
-    read_rows(file, g + "force/value", H5T_NATIVE_DOUBLE, lo, n, 3, f.data(), dxpl);
-    const int nw = p.rotation ? p.walls : 0;
-    std::vector<double> w(p.rotation ? 3 * n : 0), t(p.rotation ? 3 * n : 0), wx(3 * nw * n);
-    if (p.rotation) {
-      read_rows(file, g + "omega/value", H5T_NATIVE_DOUBLE, lo, n, 3, w.data(), dxpl);
-      read_rows(file, g + "torque/value", H5T_NATIVE_DOUBLE, lo, n, 3, t.data(), dxpl);
-      if (nw > 0) read_rows(file, g + "wall_xi/value", H5T_NATIVE_DOUBLE, lo, n, 3 * nw, wx.data(), dxpl);
+    const SnapshotReader in(path, dom.comm);
+    const hsize_t N = in.particles();
+    const hsize_t lo = N * dom.rank / dom.nranks, n = N * (dom.rank + 1) / dom.nranks - lo;
+    // This scene's columns, as the run that wrote the snapshot had them.
+    const std::vector<GrainColumn> columns = grain_columns(p);
+    std::vector<std::vector<double>> values;
+    for (const auto& c : columns) {
+      values.emplace_back(n * c.width, 0.0);
+      if (!in.has(kGrains + c.name)) {
+        if (c.optional) continue;  // older snapshots: zeros (e.g. contacts take their present speed)
+        throw ConfigError(path + ": the case needs particles/grains/" + c.name +
+                          " but the snapshot has none (it was written for a scene without it)");
+      }
+      // ids travel as their bits; everything else converts exactly to double
+      if (c.type == GrainColumn::Int64) {
+        std::vector<std::int64_t> raw(n * c.width);
+        in.read(kGrains + c.name + "/value", H5T_NATIVE_INT64, lo, n, c.width, raw.data());
+        for (std::size_t k = 0; k < raw.size(); ++k) values.back()[k] = id_bits(raw[k]);
+      } else {
+        in.read(kGrains + c.name + "/value", H5T_NATIVE_DOUBLE, lo, n, c.width, values.back().data());
+      }
     }
-    const int ni = p.impacts ? p.walls : 0;
-    std::vector<double> wi(ni * n, 0.0);
-    if (ni > 0 && H5Lexists(file, (g + "wall_impact").c_str(), H5P_DEFAULT) > 0)
-      read_rows(file, g + "wall_impact/value", H5T_NATIVE_DOUBLE, lo, n, ni, wi.data(), dxpl);
-    const int nr = p.rolling ? p.walls : 0;
-    std::vector<double> wr(3 * nr * n, 0.0);
-    if (nr > 0 && H5Lexists(file, (g + "wall_roll").c_str(), H5P_DEFAULT) > 0)
-      read_rows(file, g + "wall_roll/value", H5T_NATIVE_DOUBLE, lo, n, 3 * nr, wr.data(), dxpl);
-    std::vector<std::int32_t> copy(p.copies ? n : 0, 0);
-    if (p.copies) {
-      if (H5Lexists(file, (g + "le_copy").c_str(), H5P_DEFAULT) <= 0)
-        throw ConfigError(path + ": the case has domain.modified_lees_edwards but the snapshot has no "
-                                 "particles/grains/le_copy (it was written without it)");
-      read_rows(file, g + "le_copy/value", H5T_NATIVE_INT32, lo, n, 1, copy.data(), dxpl);
+    auto column = [&](const std::string& name) -> const std::vector<double>& {
+      for (std::size_t k = 0; k < columns.size(); ++k)
+        if (columns[k].name == name) return values[k];
+      throw std::logic_error("no grain column " + name);
+    };
+    const auto &ids = column("id"), &species = column("species"), &radius = column("radius"), &mass = column("mass"),
+               &x = column("position"), &v = column("velocity");
+    p.resize(0);
+    for (hsize_t k = 0; k < n; ++k) {
+      p.add(bits_id(ids[k]), static_cast<int>(species[k]), radius[k], mass[k], Vec3(x[3 * k], x[3 * k + 1], x[3 * k + 2]),
+            Vec3(v[3 * k], v[3 * k + 1], v[3 * k + 2]));
+      for (std::size_t c = 0; c < columns.size(); ++c)
+        if (columns[c].unpack) columns[c].unpack(p, k, &values[c][k * columns[c].width]);
     }
-    double state[3];
+    p.nlocal = p.size();
+
+    const double state[3] = {in.number("parameters/time_offset_dt", 0), in.number("parameters/time_offset_dt", 1),
+                             in.number("parameters/time_offset_dt", 2)};
     std::int64_t step = 0;
-    read_rows(file, "parameters/time_offset_dt", H5T_NATIVE_DOUBLE, 0, 3, 1, state, dxpl, false);
-    read_rows(file, "parameters/step", H5T_NATIVE_INT64, 0, 1, 1, &step, dxpl, false);
+    in.read("parameters/step", H5T_NATIVE_INT64, 0, 1, 1, &step, false);
     // Contact springs: everyone reads all and keeps those of its particles.
-    const hsize_t M = extent(file, "contacts/owner", 0);
+    const hsize_t M = in.extent("contacts/owner", 0);
     std::vector<std::int64_t> owner(M), partner(M);
     std::vector<double> xi(3 * M);
-    read_rows(file, "contacts/owner", H5T_NATIVE_INT64, 0, M, 1, owner.data(), dxpl, false);
-    read_rows(file, "contacts/partner", H5T_NATIVE_INT64, 0, M, 1, partner.data(), dxpl, false);
-    read_rows(file, "contacts/xi", H5T_NATIVE_DOUBLE, 0, M, 3, xi.data(), dxpl, false);
+    in.read("contacts/owner", H5T_NATIVE_INT64, 0, M, 1, owner.data(), false);
+    in.read("contacts/partner", H5T_NATIVE_INT64, 0, M, 1, partner.data(), false);
+    in.read("contacts/xi", H5T_NATIVE_DOUBLE, 0, M, 3, xi.data(), false);
     // Impact speeds (Bridges restitution) since they were stored; older snapshots have none and
     // their contacts take their present approach speed (ContactForces::force).
     std::vector<double> impact(M, 0.0);
-    if (H5Lexists(file, "contacts/impact_speed", H5P_DEFAULT) > 0)
-      read_rows(file, "contacts/impact_speed", H5T_NATIVE_DOUBLE, 0, M, 1, impact.data(), dxpl, false);
+    if (in.has("contacts/impact_speed")) in.read("contacts/impact_speed", H5T_NATIVE_DOUBLE, 0, M, 1, impact.data(), false);
     std::vector<double> roll(3 * M, 0.0);  // rolling-resistance torque springs, likewise
-    if (H5Lexists(file, "contacts/roll", H5P_DEFAULT) > 0)
-      read_rows(file, "contacts/roll", H5T_NATIVE_DOUBLE, 0, M, 3, roll.data(), dxpl, false);
-
-    p.resize(0);
-    for (hsize_t k = 0; k < n; ++k) {
-      p.add(ids[k], species[k], radius[k], mass[k], Vec3(x[3 * k], x[3 * k + 1], x[3 * k + 2]),
-            Vec3(v[3 * k], v[3 * k + 1], v[3 * k + 2]));
-      p.f[k] = Vec3(f[3 * k], f[3 * k + 1], f[3 * k + 2]);
-      if (p.rotation) {
-        p.omega[k] = Vec3(w[3 * k], w[3 * k + 1], w[3 * k + 2]);
-        p.torque[k] = Vec3(t[3 * k], t[3 * k + 1], t[3 * k + 2]);
-        for (int q = 0; q < nw; ++q)
-          p.wall_xi[k * nw + q] = Vec3(wx[3 * nw * k + 3 * q], wx[3 * nw * k + 3 * q + 1], wx[3 * nw * k + 3 * q + 2]);
-      }
-      for (int q = 0; q < ni; ++q) p.wall_impact[k * ni + q] = wi[ni * k + q];
-      if (p.copies) p.le_copy[k] = static_cast<std::uint8_t>(copy[k]);
-      for (int q = 0; q < nr; ++q)
-        p.wall_roll[k * nr + q] = Vec3(wr[3 * nr * k + 3 * q], wr[3 * nr * k + 3 * q + 1], wr[3 * nr * k + 3 * q + 2]);
-    }
-    p.nlocal = p.size();
-    std::vector<std::int64_t> mine(ids);
+    if (in.has("contacts/roll")) in.read("contacts/roll", H5T_NATIVE_DOUBLE, 0, M, 3, roll.data(), false);
+    std::vector<std::int64_t> mine(p.id.begin(), p.id.end());
     std::sort(mine.begin(), mine.end());
     sim.history.clear();
     for (hsize_t k = 0; k < M; ++k)
@@ -512,15 +448,11 @@ void read_snapshot(Simulation& sim, const std::string& path) {
                         std::to_string(sim.dt) + " (a restart must keep the time step)");
     // Named run state (written by every rank alike; outlet counts go to rank 0 only).
     sim.restart_state.clear();
-    if (H5Lexists(file, "parameters/state", H5P_DEFAULT) > 0) {
-      Handle sg(H5Gopen2(file, "parameters/state", H5P_DEFAULT), H5Gclose, "group parameters/state");
+    if (in.has("parameters/state")) {
+      Handle sg(H5Gopen2(in.file(), "parameters/state", H5P_DEFAULT), H5Gclose, "group parameters/state");
       std::vector<std::string> keys;
       H5Literate(sg, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect_name, &keys);
-      for (const auto& key : keys) {
-        double v = 0;
-        read_rows(file, "parameters/state/" + key, H5T_NATIVE_DOUBLE, 0, 1, 1, &v, dxpl, false);
-        sim.restart_state.push_back({key, v});
-      }
+      for (const auto& key : keys) sim.restart_state.push_back({key, in.number("parameters/state/" + key)});
     }
     double count = 0;
     if (sim.domain.rank == 0 && sim.restart_value("halo.removed", count)) sim.halo.removed = static_cast<std::int64_t>(count);

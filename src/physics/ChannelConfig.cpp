@@ -28,7 +28,8 @@ std::vector<Point2> polyline(CaseFile& f, const std::string& key) {
 }  // namespace
 
 void read_channel_config(CaseFile& f, Config& c) {
-  ChannelConfig& ch = c.channel;
+  c.set(ChannelConfig{});
+  ChannelConfig& ch = c.edit<ChannelConfig>();
   if (c.boundary[2] != Boundary::Wall) f.fail("domain.boundary", "z walls (the channel floor and ceiling)");
   if (c.boundary[1] == Boundary::Wall)
     f.fail("domain.boundary", "y \"open\": the channel's side walls are its outline, not the domain's y faces");

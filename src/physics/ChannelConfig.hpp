@@ -54,7 +54,7 @@ struct ChannelConfig {
   double front_fraction = 0.5;  // the front has passed once the approach holds this x inlet_fraction
 };
 
-// Reads the channel tables into cfg.channel (only for scenes with the "channel" module).
+// Reads the channel tables into cfg.get<ChannelConfig>() (only for scenes with the "channel" module).
 void read_channel_config(CaseFile& f, Config& cfg);
 
 }  // namespace cassini

@@ -4,12 +4,28 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini {
 
+ModuleKind ChannelWalls::kind() {
+  auto read = [](CaseFile& f, Config& c) {
+    read_channel_config(f, c);
+    if (c.velocity_dependent_restitution())
+      f.fail("species", "restitution = \"constant\" with module \"channel\" (the Bridges law is for ice rings: "
+                        "particle pairs, plane walls and the moonlet)");
+  };
+  auto make = [](Simulation& sim) {
+    auto walls = std::make_unique<ChannelWalls>(sim.cfg, sim.dt, 0);
+    walls->first_slot_ = sim.claim_wall_slots(walls->geometry().features());
+    return walls;
+  };
+  return {"channel", {}, read, make};
+}
+
 ChannelWalls::ChannelWalls(const Config& cfg, double dt, int first_slot)
-    : law_(cfg, dt), geometry_(cfg.channel), first_slot_(first_slot) {
+    : law_(cfg, dt), geometry_(cfg.get<ChannelConfig>()), first_slot_(first_slot) {
   geometry_.index(cfg.max_radius(), cfg.lo[0], cfg.hi[0]);
   if (geometry_.features() > 64) throw std::runtime_error("channel: more than 64 wall faces and edges");
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "physics/ChannelGeometry.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
@@ -13,6 +14,9 @@ namespace cassini {
 
 class ChannelWalls : public Module {
  public:
+  // Reads [channel], [flow], [drag], [inlet] and [clog] (ChannelConfig), which the drag, inlet
+  // and clog modules share.
+  static ModuleKind kind();
   ChannelWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
   unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
@@ -20,8 +24,9 @@ class ChannelWalls : public Module {
   void final_integrate(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
-  double max_overlap_fraction() const { return max_overlap_; }
-  std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
+  double max_overlap_fraction() const override { return max_overlap_; }
+  std::int64_t worst_id() const override { return worst_id_; }
+  std::string overlap_label() const override { return "channel wall overlap"; }
   const ChannelGeometry& geometry() const { return geometry_; }
 
  private:

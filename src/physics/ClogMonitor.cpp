@@ -7,17 +7,22 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
+#include "physics/ChannelConfig.hpp"
 #include "physics/ChannelGeometry.hpp"
 #include "physics/Inlet.hpp"
 #include "physics/StokesDrag.hpp"
 
 namespace cassini {
 
+ModuleKind ClogMonitor::kind() {
+  return {"clog", {"channel"}, nullptr, [](Simulation& sim) { return std::make_unique<ClogMonitor>(sim.cfg); }};
+}
+
 void ClogMonitor::setup(Simulation& sim) {
-  every_ = std::max(1L, std::lround(cfg_.channel.clog_window / 1000 / sim.dt));
+  every_ = std::max(1L, std::lround(cfg_.get<ChannelConfig>().clog_window / 1000 / sim.dt));
   last_change_ = sim.time;
   inlet_ = sim.find<Inlet>();
-  const ChannelConfig& ch = cfg_.channel;
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   if (ch.backflush > 0 && !sim.find<StokesDrag>())
     throw ConfigError(cfg_.source + ": key 'clog.backflush': a back-flush reverses the drag's flow; add the \"drag\" module");
   const ChannelGeometry geo(ch);
@@ -71,7 +76,7 @@ void ClogMonitor::end_of_step(Simulation& sim) {
 }
 
 void ClogMonitor::check(Simulation& sim) {
-  const ChannelConfig& ch = cfg_.channel;
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   if (backflush_until_ >= 0) {
     if (sim.time < backflush_until_) return;
     backflush_until_ = -1;  // forwards again: a fresh avalanche from the next count
@@ -128,16 +133,16 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   clogged_ = true;
   sizes_.push_back(escaped_ - avalanche_start_);
   starts_.push_back(resumed_at_);
-  if (!cfg_.channel.continuous || static_cast<int>(sizes_.size()) >= cfg_.channel.avalanches) {
-    sim.finish(why + (cfg_.channel.continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
+  if (!cfg_.get<ChannelConfig>().continuous || static_cast<int>(sizes_.size()) >= cfg_.get<ChannelConfig>().avalanches) {
+    sim.finish(why + (cfg_.get<ChannelConfig>().continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
     return;
   }
   ParticleStore& p = sim.particles;
-  if (cfg_.channel.backflush > 0) {
+  if (cfg_.get<ChannelConfig>().backflush > 0) {
     for (std::size_t i = 0; i < p.nlocal; ++i)
-      if (p.x[i][0] > cfg_.channel.pass_x) p.x[i][0] = cfg_.hi[0] + 1.0;  // out through the outlet
+      if (p.x[i][0] > cfg_.get<ChannelConfig>().pass_x) p.x[i][0] = cfg_.hi[0] + 1.0;  // out through the outlet
     sim.find<StokesDrag>()->set_flow_sign(-1);
-    backflush_until_ = sim.time + cfg_.channel.backflush;
+    backflush_until_ = sim.time + cfg_.get<ChannelConfig>().backflush;
     clogged_ = false;
     rest_since_ = -1;
     return;
@@ -147,12 +152,12 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   // rebuild, which their displacement forces; not escapees). The clock and counts restart.
   double lead = -1e300;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.x[i][0] <= cfg_.channel.pass_x) lead = std::max(lead, p.x[i][0]);
+    if (p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) lead = std::max(lead, p.x[i][0]);
   MPI_Allreduce(MPI_IN_PLACE, &lead, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
   const double arch_lo = lead - 2 * cfg_.max_radius();
   long gone = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.x[i][0] > arch_lo && p.x[i][0] <= cfg_.channel.pass_x) {
+    if (p.x[i][0] > arch_lo && p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) {
       p.x[i][0] = cfg_.lo[0] - 1.0;
       p.v[i] = Vec3::Zero();
       ++gone;
@@ -172,7 +177,7 @@ bool ClogMonitor::at_rest(Simulation& sim) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i) v2 = std::max(v2, p.v[i].squaredNorm());
   MPI_Allreduce(MPI_IN_PLACE, &v2, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
-  const double vr = cfg_.channel.rest_speed;
+  const double vr = cfg_.get<ChannelConfig>().rest_speed;
   return v2 < vr * vr;
 }
 
@@ -186,7 +191,7 @@ void ClogMonitor::publish(Simulation& sim) const {
   };
   sim.set_result("front_time", front_time_ >= 0 ? std::to_string(front_time_) : "null");
   sim.set_result("escapees_after_front", front_time_ >= 0 ? std::to_string(escaped_ - escaped_at_front_) : "null");
-  if (cfg_.channel.continuous) {
+  if (cfg_.get<ChannelConfig>().continuous) {
     sim.set_result("avalanches", list(sizes_));
     sim.set_result("avalanche_starts", list(starts_));
     sim.set_result("removed_from_neck", std::to_string(removed_));

@@ -34,7 +34,10 @@
 // the neck that ended in a passage. Any window longer than every such pause in an ensemble gives
 // the same s and clog time, run by run, to the checks' interval (a standstill that no passage
 // ends is the clog); scripts/clog_physics.py reports it per ensemble.
+#include <algorithm>
+
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 
 namespace cassini {
 
@@ -42,12 +45,18 @@ struct Config;
 
 class ClogMonitor : public Module {
  public:
+  static ModuleKind kind();
   explicit ClogMonitor(const Config& cfg) : cfg_(cfg) {}
   std::string name() const override { return "clog monitor"; }
   unsigned stages() const override { return kEndOfStep; }
   void setup(Simulation& sim) override;
   void end_of_step(Simulation& sim) override;
   long escapees() const { return escaped_; }
+  // escapees (since the start) and in_neck, as last counted.
+  void observables(Simulation&, std::vector<std::pair<std::string, double>>& out) override {
+    out.emplace_back("escapees", double(std::max(escaped_, 0L)));
+    out.emplace_back("in_neck", double(std::max(in_neck_, 0L)));
+  }
   bool clogged() const { return clogged_; }
   double clog_time() const { return last_change_; }
   const std::vector<long>& avalanches() const { return sizes_; }

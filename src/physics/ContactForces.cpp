@@ -316,6 +316,14 @@ void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& o
     }
 }
 
+ModuleKind ContactForces::kind() {
+  return {"contact", {}, nullptr, [](Simulation& sim) { return std::make_unique<ContactForces>(sim.cfg, sim.dt); }};
+}
+
+void ContactForces::setup(Simulation& sim) {
+  if (sim.restored) refresh_diagnostics(sim);
+}
+
 void ContactForces::refresh_diagnostics(const Simulation& sim) {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/NeighborList.hpp"
 #include "core/ParticleStore.hpp"
 #include "parallel/HaloExchange.hpp"
@@ -14,6 +15,7 @@ namespace cassini {
 
 class ContactForces : public Module {
  public:
+  static ModuleKind kind();
   ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
   std::string name() const override { 
     return std::string("contact (LSD") + (law_.friction() ? " + friction" : "") +
@@ -40,9 +42,13 @@ class ContactForces : public Module {
 
   // Diagnostics of the last force evaluation (this rank).
   long contacts() const { return contacts_; }               // pairs in contact, each counted once per owned side
-  double max_overlap_fraction() const { return max_overlap_; }  // max delta / min(a_i, a_j)
-  std::int64_t worst_id() const { return worst_id_; }
-  double elastic_energy(const Simulation& sim) const;       // sum 1/2 k delta^2 over this rank's owned sides / 2
+  double max_overlap_fraction() const override { return max_overlap_; }  // max delta / min(a_i, a_j)
+  std::int64_t worst_id() const override { return worst_id_; }
+  double elastic_energy(const Simulation& sim) const override;  // sum 1/2 k delta^2 over this rank's owned sides / 2
+  bool pair_loop() const override { return true; }
+  // After a restart the state is restored without a force evaluation: the diagnostics are
+  // recomputed from it.
+  void setup(Simulation& sim) override;
   double overlap_sum() const { return overlap_sum_; }        // sum of delta / min(a_i, a_j) over contacts
   // New contacts (collisions) since the last call, each pair counted once across all ranks.
   long take_collisions() { const long c = collisions_; collisions_ = 0; return c; }

@@ -58,7 +58,7 @@ struct SolveBox {
 };
 
 SolveBox solve_box(const Config& cfg) {
-  const ChannelConfig& ch = cfg.channel;
+  const ChannelConfig& ch = cfg.get<ChannelConfig>();
   SolveBox b;
   b.dx = ch.neck_width / ch.resolution;
   const int half = static_cast<int>(std::lround(ch.solve_half_length / b.dx));
@@ -81,11 +81,11 @@ std::string cache_key(const Config& cfg, const SolveBox& b) {
   std::ostringstream os;
   os.precision(17);
   os << "stokes-v2 dx=" << b.dx << " x0=" << b.x0 << " y0=" << b.y0 << " z0=" << b.z0 << " n=" << b.nx << "," << b.ny
-     << "," << b.nz << " v=" << cfg.channel.mean_velocity << " terms=" << cfg.channel.series_terms
-     << " walls=" << (cfg.channel.embedded_walls ? "embedded" : "staircase") << " upper=";
-  for (const auto& p : cfg.channel.upper) os << p[0] << ":" << p[1] << ";";
+     << "," << b.nz << " v=" << cfg.get<ChannelConfig>().mean_velocity << " terms=" << cfg.get<ChannelConfig>().series_terms
+     << " walls=" << (cfg.get<ChannelConfig>().embedded_walls ? "embedded" : "staircase") << " upper=";
+  for (const auto& p : cfg.get<ChannelConfig>().upper) os << p[0] << ":" << p[1] << ";";
   os << " lower=";
-  for (const auto& p : cfg.channel.lower) os << p[0] << ":" << p[1] << ";";
+  for (const auto& p : cfg.get<ChannelConfig>().lower) os << p[0] << ":" << p[1] << ";";
   return os.str();
 }
 
@@ -95,7 +95,7 @@ struct Solved {
 };
 
 Solved compute(const Config& cfg, const SolveBox& b) {
-  const ChannelConfig& ch = cfg.channel;
+  const ChannelConfig& ch = cfg.get<ChannelConfig>();
   const ChannelGeometry geo(ch);
   StokesGrid g;
   g.nx = b.nx; g.ny = b.ny; g.nz = b.nz; g.dx = b.dx;
@@ -324,7 +324,7 @@ bool read_cache(const std::string& file, const std::string& key, Solved& s) {
 }  // namespace
 
 FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
-  const ChannelConfig& ch = cfg.channel;
+  const ChannelConfig& ch = cfg.get<ChannelConfig>();
   const SolveBox b = solve_box(cfg);
   const std::string key = cache_key(cfg, b);
   std::ostringstream name;

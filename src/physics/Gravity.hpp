@@ -1,6 +1,10 @@
 #pragma once
 // A constant body force per unit mass (gravity).
+#include <memory>
+
+#include "core/CaseFile.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/Simulation.hpp"
 #include "core/Vec3.hpp"
 
@@ -8,6 +12,14 @@ namespace cassini {
 
 class Gravity : public Module {
  public:
+  struct Settings {  // [gravity]
+    Vec3 g{0, 0, 0};  // acceleration (m/s^2)
+  };
+  static ModuleKind kind() {
+    return {"gravity", {},
+            [](CaseFile& f, Config& c) { c.set(Settings{f.vec3("gravity.g")}); },
+            [](Simulation& sim) { return std::make_unique<Gravity>(sim.cfg.get<Settings>().g); }};
+  }
   explicit Gravity(const Vec3& g) : g_(g) {}
   std::string name() const override { return "gravity"; }
   unsigned stages() const override { return kForce; }

@@ -5,16 +5,11 @@
 #include <sstream>
 
 #include "core/Simulation.hpp"
-#include "physics/ChannelWalls.hpp"
-#include "physics/ContactForces.hpp"
-#include "physics/Moonlet.hpp"
-#include "physics/PlaneWalls.hpp"
 
 namespace cassini {
 
 void Guards::setup(Simulation& sim) {
   start_ = energy(sim);
-  channel_ = sim.find<ChannelWalls>();
   double r = sim.cfg.min_radius(), smallest = 0;
   for (std::size_t i = 0; i < sim.particles.nlocal; ++i) r = std::min(r, sim.particles.radius[i]);
   MPI_Allreduce(&r, &smallest, 1, MPI_DOUBLE, MPI_MIN, sim.domain.comm);
@@ -72,18 +67,10 @@ std::string Guards::diagnose(const Simulation& sim) const {
         break;
       }
   }
-  if (why.tellp() == 0 && sim.contact && sim.contact->max_overlap_fraction() > max_overlap_)
-    why << "overlap of " << sim.contact->max_overlap_fraction() << " radii at particle " << sim.contact->worst_id()
-        << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
-  if (why.tellp() == 0 && sim.walls && sim.walls->max_overlap_fraction() > max_overlap_)
-    why << "wall overlap of " << sim.walls->max_overlap_fraction() << " radii at particle " << sim.walls->worst_id()
-        << " exceeds guards.max_overlap = " << max_overlap_;
-  if (why.tellp() == 0 && channel_ && channel_->max_overlap_fraction() > max_overlap_)
-    why << "channel wall overlap of " << channel_->max_overlap_fraction() << " radii at particle " << channel_->worst_id()
-        << " exceeds guards.max_overlap = " << max_overlap_;
-  if (why.tellp() == 0 && sim.moonlet && sim.moonlet->max_overlap_fraction() > max_overlap_)
-    why << "moonlet overlap of " << sim.moonlet->max_overlap_fraction() << " radii at particle " << sim.moonlet->worst_id()
-        << " exceeds guards.max_overlap = " << max_overlap_ << " (impact too fast for t_c)";
+  for (const auto& m : sim.modules)
+    if (why.tellp() == 0 && m->max_overlap_fraction() > max_overlap_)
+      why << m->overlap_label() << " of " << m->max_overlap_fraction() << " radii at particle " << m->worst_id()
+          << " exceeds guards.max_overlap = " << max_overlap_ << " (time step too large or impact too fast for t_c)";
   return why.str();
 }
 
@@ -121,8 +108,8 @@ void Guards::end_of_step(Simulation& sim) {
     for (std::size_t i = 0; i < p.nlocal && !bad; ++i)
       bad = p.x[i][d] < sim.domain.lo[d] - p.radius[i] || p.x[i][d] > sim.domain.hi[d] + p.radius[i];
   }
-  auto over = [&](const auto* m) { return m && m->max_overlap_fraction() > max_overlap_; };
-  if (bad || over(sim.contact) || over(sim.walls) || over(channel_) || over(sim.moonlet)) sim.raise_guard(diagnose(sim));
+  for (const auto& m : sim.modules) bad = bad || m->max_overlap_fraction() > max_overlap_;
+  if (bad) sim.raise_guard(diagnose(sim));
 
   // Kinetic energy growth (collective: every rank takes this branch on the same steps).
   if (sim.step_count % 100 == 0) {

@@ -32,7 +32,6 @@ class Guards : public Module {
   double max_step_;      // fraction of the smallest radius
   double step_limit2_ = 0;  // (max_step_ * smallest radius)^2
   double last_drift2_ = 0;  // the integrator's max_drift2 of the previous step
-  const class ChannelWalls* channel_ = nullptr;
 };
 
 }  // namespace cassini

@@ -2,17 +2,35 @@
 
 #include <cmath>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini {
 
+ModuleKind HillFrame::kind() {
+  auto read = [](CaseFile& f, Config& c) {
+    HillSettings h;
+    h.saturn_mass = f.positive("hill.saturn_mass", h.saturn_mass);
+    h.orbit_radius = f.positive("hill.orbit_radius", h.orbit_radius);
+    h.form = f.string("hill.form", "linear");
+    if (h.form != "linear" && h.form != "exact") f.fail("hill.form", "\"linear\" or \"exact\"");
+    h.vertical_frequency = f.number("hill.vertical_frequency", 1.0);
+    if (!(h.vertical_frequency >= 1.0))
+      f.fail("hill.vertical_frequency", "Omega_z / Omega0 >= 1 (1: Saturn's tide alone; ring codes use 2-3.6 to mimic self-gravity)");
+    c.set(h);
+    c.frame_rotation = h.omega0();
+    c.shear_rate = 1.5 * h.omega0();  // the default of domain.shear_rate: v_x = 1.5 Omega0 y
+  };
+  return {"hill", {}, read, [](Simulation& sim) { return std::make_unique<HillFrame>(sim.cfg); }};
+}
+
 HillFrame::HillFrame(const Config& cfg)
-    : exact_(cfg.hill_form == "exact"),
+    : exact_(cfg.get<HillSettings>().form == "exact"),
       planar_(cfg.planar),
-      omega_(cfg.omega0()),
-      gm_(kGravitationalConstant * cfg.saturn_mass),
-      r0_(cfg.orbit_radius) {
-  const double wz = cfg.vertical_frequency * omega_;
+      omega_(cfg.get<HillSettings>().omega0()),
+      gm_(kGravitationalConstant * cfg.get<HillSettings>().saturn_mass),
+      r0_(cfg.get<HillSettings>().orbit_radius) {
+  const double wz = cfg.get<HillSettings>().vertical_frequency * omega_;
   extra_z2_ = exact_ ? wz * wz - omega_ * omega_ : wz * wz;
 }
 
@@ -69,6 +87,19 @@ void HillFrame::force(Simulation& sim) {
   }
   const Simulation::TargetList T = sim.target_list();
   for (std::size_t t = 0; t < T.count; ++t) p.f[T[t]] += p.mass[T[t]] * acceleration(p.x[T[t]]);
+}
+
+void HillFrame::observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) {
+  if (planar_) return;
+  const ParticleStore& p = sim.particles;
+  const double mid = 0.5 * (sim.cfg.lo[2] + sim.cfg.hi[2]);
+  double local[2] = {0, 0}, global[2];
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    local[0] += p.mass[i] * (p.x[i][2] - mid) * (p.x[i][2] - mid);
+    local[1] += p.mass[i];
+  }
+  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  out.emplace_back("ring_thickness", global[1] > 0 ? std::sqrt(global[0] / global[1]) : 0.0);
 }
 
 }  // namespace cassini

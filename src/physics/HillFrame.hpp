@@ -21,13 +21,26 @@
 // each half step (VelocityVerlet::set_frame_rotation). The step is then the symmetric
 // splitting kick(dt/2) rotate(dt/2) drift(dt) rotate(dt/2) kick(dt/2): time-reversible, and
 // a free epicycle neither gains nor loses energy secularly.
+#include <cmath>
+
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 
 namespace cassini {
 
+struct HillSettings {  // [hill]
+  std::string form = "linear";     // linear | exact
+  double vertical_frequency = 1.0;  // Omega_z / Omega0 of the vertical tide (> 1 mimics self-gravity)
+  double saturn_mass = 5.68e26, orbit_radius = 1.17e8;  // Saturn at (0, -r0)
+  double omega0() const { return std::sqrt(kGravitationalConstant * saturn_mass / std::pow(orbit_radius, 3)); }
+};
+
 class HillFrame : public Module {
  public:
+  // Reading [hill] also sets the frame's rotation (the integrator's Coriolis term) and the
+  // default Lees-Edwards shear, Keplerian 1.5 Omega0.
+  static ModuleKind kind();
   explicit HillFrame(const Config& cfg);
   std::string name() const override { return "hill (" + std::string(exact_ ? "exact" : "linear") + ")"; }
   unsigned stages() const override { return kForce; }
@@ -37,6 +50,9 @@ class HillFrame : public Module {
   // conserved by a free particle: linear m (-3/2 W^2 y^2 + 1/2 W_z^2 z^2); exact, Saturn's
   // potential and the centrifugal one.
   double potential_energy(const Simulation& sim) const override;
+  // 3D: ring_thickness, the mass-weighted rms height above the mid-plane (the tide's
+  // equilibrium plane).
+  void observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) override;
 
   double omega() const { return omega_; }
   // Acceleration (per unit mass) of the frame's position-dependent forces at x.

@@ -6,9 +6,15 @@
 
 #include "core/Initializer.hpp"
 #include "core/Simulation.hpp"
+#include "physics/ChannelWalls.hpp"
 #include "physics/StokesDrag.hpp"
 
 namespace cassini {
+
+ModuleKind Inlet::kind() {
+  auto make = [](Simulation& sim) { return std::make_unique<Inlet>(sim.cfg, sim.find<ChannelWalls>()->geometry()); };
+  return {"inlet", {"channel"}, nullptr, make};
+}
 
 namespace {
 struct Nearby {
@@ -18,7 +24,7 @@ struct Nearby {
 }  // namespace
 
 void Inlet::setup(Simulation& sim) {
-  every_ = std::max(1L, std::lround(cfg_.channel.inlet_every / sim.dt));
+  every_ = std::max(1L, std::lround(cfg_.get<ChannelConfig>().inlet_every / sim.dt));
   std::int64_t local = -1;
   for (std::size_t i = 0; i < sim.particles.nlocal; ++i) local = std::max(local, sim.particles.id[i]);
   MPI_Allreduce(&local, &next_id_, 1, MPI_INT64_T, MPI_MAX, sim.domain.comm);
@@ -36,7 +42,7 @@ void Inlet::end_of_step(Simulation& sim) {
 }
 
 void Inlet::top_up(Simulation& sim) {
-  const ChannelConfig& ch = cfg_.channel;
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   ParticleStore& p = sim.particles;
   const Species& sp = cfg_.species[cfg_.init_species];
   const double amax = sp.radius_max, x0 = ch.inlet_x - 0.5 * ch.inlet_length, x1 = x0 + ch.inlet_length;

@@ -8,14 +8,17 @@
 // count. The outlet is the domain's open x face: particles that leave are removed and counted.
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
+#include "physics/ChannelConfig.hpp"
 #include "physics/ChannelGeometry.hpp"
 
 namespace cassini {
 
 class Inlet : public Module {
  public:
+  static ModuleKind kind();
   Inlet(const Config& cfg, const ChannelGeometry& geo) : cfg_(cfg), geo_(geo) {}
-  std::string name() const override { return "inlet (phi = " + std::to_string(cfg_.channel.inlet_fraction).substr(0, 4) + ")"; }
+  std::string name() const override { return "inlet (phi = " + std::to_string(cfg_.get<ChannelConfig>().inlet_fraction).substr(0, 4) + ")"; }
   unsigned stages() const override { return kEndOfStep; }
   void setup(Simulation& sim) override;
   void end_of_step(Simulation& sim) override;

@@ -1,14 +1,30 @@
 #include "physics/Lubrication.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini {
 
-Lubrication::Lubrication(const Config& cfg, double dt)
-    : roughness_(cfg.lubrication_roughness), viscosity_(cfg.lubrication_viscosity), dt_(dt) {}
+ModuleKind Lubrication::kind() {
+  auto read = [](CaseFile& f, Config& c) {
+    double dmin = 1e300;
+    for (const auto& s : c.species) dmin = std::min(dmin, 2 * s.radius_min);
+    LubricationSettings s;
+    s.roughness = f.positive("lubrication.roughness", 0.01 * dmin);
+    s.viscosity = f.positive("lubrication.viscosity", f.number("flow.viscosity", 1.8e-3));
+    c.set(s);
+    c.pair_reach = c.max_radius();  // h <= d/2 for the largest pair
+  };
+  auto make = [](Simulation& sim) { return std::make_unique<Lubrication>(sim.cfg.get<LubricationSettings>(), sim.dt); };
+  return {"lubrication", {}, read, make};
+}
+
+Lubrication::Lubrication(const LubricationSettings& s, double dt)
+    : roughness_(s.roughness), viscosity_(s.viscosity), dt_(dt) {}
 
 Vec3 Lubrication::pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj) const {
   const double r = d.norm(), a_star = ai * aj / (ai + aj);
@@ -51,6 +67,12 @@ void Lubrication::pair_forces(const Simulation& sim, std::vector<PairForce>& out
       const Vec3 f = pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
       if (!f.isZero(0)) out.push_back({p.id[i], p.id[j], p.x[i], d, f});
     }
+}
+
+void Lubrication::observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) {
+  long total = 0;
+  MPI_Allreduce(&active_, &total, 1, MPI_LONG, MPI_SUM, sim.domain.comm);
+  out.emplace_back("lubricated_pairs", double(total));
 }
 
 }  // namespace cassini

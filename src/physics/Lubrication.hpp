@@ -16,15 +16,20 @@
 //
 // Evaluated from each side with the same operations, so the pair forces cancel bitwise.
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/Vec3.hpp"
 
 namespace cassini {
 
-struct Config;
+struct LubricationSettings {  // [lubrication]
+  double roughness = 0;  // eps_r (m): h is held at 2 eps_r below it; default 1 % of the smallest diameter
+  double viscosity = 0;  // Pa s; default flow.viscosity, else 1.8e-3
+};
 
 class Lubrication : public Module {
  public:
-  Lubrication(const Config& cfg, double dt);
+  static ModuleKind kind();
+  Lubrication(const LubricationSettings& s, double dt);
   std::string name() const override { return "lubrication (eps_r = " + std::to_string(roughness_) + " m)"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
@@ -32,6 +37,8 @@ class Lubrication : public Module {
   // The force on i for one pair, from (x_i - x_j), (v_i - v_j), radii and masses.
   Vec3 pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj) const;
   long active_pairs() const { return active_; }
+  // lubricated_pairs: pairs within the film's reach at the last force evaluation.
+  void observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) override;
 
  private:
   double roughness_, viscosity_, dt_;

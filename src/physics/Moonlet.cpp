@@ -2,12 +2,26 @@
 
 #include <cmath>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini {
 
+ModuleKind Moonlet::kind() {
+  auto read = [](CaseFile& f, Config& c) {
+    const MoonletSettings m{f.positive("moonlet.mass"), f.positive("moonlet.radius")};
+    c.set(m);
+    c.obstacle_radius = m.radius;
+  };
+  auto make = [](Simulation& sim) {
+    const int slot = sim.claim_wall_slots(1);  // its spring with each particle (friction)
+    return std::make_unique<Moonlet>(sim.cfg, sim.dt, slot);
+  };
+  return {"moonlet", {}, read, make};
+}
+
 Moonlet::Moonlet(const Config& cfg, double dt, int slot)
-    : law_(cfg, dt), gm_(kGravitationalConstant * cfg.moonlet_mass), radius_(cfg.moonlet_radius),
+    : law_(cfg, dt), gm_(kGravitationalConstant * cfg.get<MoonletSettings>().mass), radius_(cfg.get<MoonletSettings>().radius),
       dims_(cfg.planar ? 2 : 3), slot_(slot) {}
 
 // Scalar components on purpose (no `r[2] = 0` on an Eigen vector): patching one lane goes

@@ -10,13 +10,19 @@
 
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 namespace cassini {
 
+struct MoonletSettings {  // [moonlet]
+  double mass = 0, radius = 0;  // kg, m
+};
+
 class Moonlet : public Module {
  public:
+  static ModuleKind kind();
   // slot: the moonlet's column in the particles' wall springs (used with friction).
   Moonlet(const Config& cfg, double dt, int slot);
   std::string name() const override { return "moonlet"; }
@@ -34,8 +40,9 @@ class Moonlet : public Module {
   Vec3 acceleration(const ParticleStore& p, std::size_t i) const {
     return feels(p, i) ? gravity(p.x[i]) : Vec3::Zero();
   }
-  double max_overlap_fraction() const { return max_overlap_; }
-  std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
+  double max_overlap_fraction() const override { return max_overlap_; }
+  std::int64_t worst_id() const override { return worst_id_; }
+  std::string overlap_label() const override { return "moonlet overlap"; }
   long contacts() const { return contacts_; }
 
  private:

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
+#include "physics/HillFrame.hpp"
 #include "physics/Moonlet.hpp"
 
 namespace cassini {
@@ -36,15 +38,34 @@ void MultiRateHill::Epicycle::advance(Vec3& x, Vec3& v) const {
   }
 }
 
+ModuleKind MultiRateHill::kind() {
+  auto read = [](CaseFile& f, Config& c) {
+    if (!c.has_module("hill") || c.get<HillSettings>().form != "linear")
+      f.fail("time.integrator", "\"verlet\": \"multirate\" needs module \"hill\" with hill.form = \"linear\" (its free particles follow the exact linear epicycle)");
+    for (const auto& m : c.modules)
+      if (m != "contact" && m != "hill" && m != "moonlet")
+        f.fail("time.integrator", "\"verlet\" with module \"" + m + "\" (\"multirate\" supports contact, hill and moonlet)");
+    const double t0 = 2 * 3.141592653589793 / c.get<HillSettings>().omega0();
+    Settings s;
+    s.long_step = f.positive("time.long_step", std::max(c.dt, std::round(t0 / 1000 / c.dt) * c.dt));
+    if (s.long_step < c.dt) f.fail("time.long_step", "at least time.dt = " + std::to_string(c.dt));
+    s.max_tidal_phase = f.positive("time.max_tidal_phase", 0.1);
+    c.set(s);
+  };
+  return {"multirate", {"hill"}, read, [](Simulation& sim) { return std::make_unique<MultiRateHill>(sim.cfg, sim.dt); }};
+}
+
 MultiRateHill::MultiRateHill(const Config& cfg, double dt)
-    : dt_(dt), omega_(cfg.omega0()), omega_z_(cfg.vertical_frequency * cfg.omega0()),
-      max_tidal_phase_(cfg.max_tidal_phase), substeps_(std::max(1L, std::lround(cfg.long_step / dt))),
+    : dt_(dt), omega_(cfg.get<HillSettings>().omega0()),
+      omega_z_(cfg.get<HillSettings>().vertical_frequency * cfg.get<HillSettings>().omega0()),
+      max_tidal_phase_(cfg.get<Settings>().max_tidal_phase),
+      substeps_(std::max(1L, std::lround(cfg.get<Settings>().long_step / dt))),
       planar_(cfg.planar) {
   long_step_ = double(substeps_) * dt;
   skin_ = cfg.skin;
   if (cfg.has_module("moonlet")) {
-    gm_ = kGravitationalConstant * cfg.moonlet_mass;
-    moonlet_radius_ = cfg.moonlet_radius;
+    gm_ = kGravitationalConstant * cfg.get<MoonletSettings>().mass;
+    moonlet_radius_ = cfg.get<MoonletSettings>().radius;
   }
   rot_c_ = std::cos(omega_ * dt);
   rot_s_ = std::sin(omega_ * dt);
@@ -56,7 +77,7 @@ std::string MultiRateHill::name() const {
   return os.str();
 }
 
-void MultiRateHill::setup(Simulation& sim) { moonlet_ = sim.moonlet; }
+void MultiRateHill::setup(Simulation& sim) { moonlet_ = sim.find<Moonlet>(); }
 
 Vec3 MultiRateHill::moonlet_acceleration(const ParticleStore& p, std::size_t i) const {
   return moonlet_ ? moonlet_->acceleration(p, i) : Vec3::Zero();

@@ -37,6 +37,7 @@
 
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
 
 namespace cassini {
@@ -45,6 +46,11 @@ class Moonlet;
 
 class MultiRateHill : public Module {
  public:
+  struct Settings {  // time.long_step, time.max_tidal_phase
+    double long_step = 0;          // seconds (a whole number of steps; default ~T0/1000)
+    double max_tidal_phase = 0.1;  // sqrt(G M_moonlet / r^3) x long step above this: contact steps
+  };
+  static ModuleKind kind();  // time.integrator = "multirate"
   MultiRateHill(const Config& cfg, double dt);
   std::string name() const override;
   unsigned stages() const override { return kInitialIntegrate | kPreForce | kFinalIntegrate | kRebuild; }

@@ -16,7 +16,16 @@ std::vector<Plane> domain_walls(const Config& cfg) {
   return planes;
 }
 
-PlaneWalls::PlaneWalls(const Config& cfg, double dt) : law_(cfg, dt), planes_(domain_walls(cfg)) {}
+ModuleKind PlaneWalls::kind() {
+  auto make = [](Simulation& sim) {
+    const int planes = static_cast<int>(domain_walls(sim.cfg).size());
+    return std::make_unique<PlaneWalls>(sim.cfg, sim.dt, sim.claim_wall_slots(planes));
+  };
+  return {"walls", {}, nullptr, make};
+}
+
+PlaneWalls::PlaneWalls(const Config& cfg, double dt, int first_slot)
+    : law_(cfg, dt), planes_(domain_walls(cfg)), first_slot_(first_slot) {}
 
 void PlaneWalls::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
@@ -31,9 +40,9 @@ void PlaneWalls::force(Simulation& sim) {
     for (int w = 0; w < nw; ++w) {
       const Plane& pl = planes_[w];
       const double s = (p.x[i] - pl.point).dot(pl.normal);
-      Vec3* xi = fric ? &p.wall_xi[i * p.walls + w] : nullptr;  // planes take the first slots
-      double* impact = p.impacts ? &p.wall_impact[i * p.walls + w] : nullptr;  // Bridges restitution
-      Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + w] : nullptr;         // rolling resistance
+      Vec3* xi = fric ? &p.wall_xi[i * p.walls + first_slot_ + w] : nullptr;
+      double* impact = p.impacts ? &p.wall_impact[i * p.walls + first_slot_ + w] : nullptr;  // Bridges restitution
+      Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + first_slot_ + w] : nullptr;         // rolling resistance
       if (s >= a) {
         if (xi) xi->setZero();
         if (roll) roll->setZero();
@@ -66,9 +75,9 @@ void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out)
       const Plane& pl = planes_[w];
       const double s = (p.x[i] - pl.point).dot(pl.normal);
       if (s >= p.radius[i]) continue;
-      Vec3 spring = law_.friction() ? p.wall_xi[i * p.walls + w] : Vec3::Zero(), torque;
-      double impact = p.impacts ? p.wall_impact[i * p.walls + w] : 0.0;
-      Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + w] : Vec3::Zero();
+      Vec3 spring = law_.friction() ? p.wall_xi[i * p.walls + first_slot_ + w] : Vec3::Zero(), torque;
+      double impact = p.impacts ? p.wall_impact[i * p.walls + first_slot_ + w] : 0.0;
+      Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + first_slot_ + w] : Vec3::Zero();
       const Vec3 f = law_.wall_force(p, i, pl.normal, p.radius[i] - s, law_.friction() ? &spring : nullptr, torque,
                                      false, nullptr, &impact, &roll);  // the step already advanced the springs
       out.push_back({p.id[i], p.x[i] - s * pl.normal, s * pl.normal, f});

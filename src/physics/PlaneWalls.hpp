@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 namespace cassini {
@@ -17,20 +18,23 @@ struct Plane {
 
 class PlaneWalls : public Module {
  public:
-  PlaneWalls(const Config& cfg, double dt);
+  static ModuleKind kind();  // the domain faces declared "wall" (added to `modules` by itself)
+  PlaneWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
   unsigned stages() const override { return kForce | (law_.exact() ? kFinalIntegrate : 0u); }
   void force(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   const std::vector<Plane>& planes() const { return planes_; }
-  double max_overlap_fraction() const { return max_overlap_; }
-  std::int64_t worst_id() const { return worst_id_; }  // the particle of that overlap
+  double max_overlap_fraction() const override { return max_overlap_; }
+  std::int64_t worst_id() const override { return worst_id_; }
+  std::string overlap_label() const override { return "wall overlap"; }
 
  private:
   LinearSpringDashpot law_;
   PendingShifts shifts_;
   std::vector<Plane> planes_;
+  int first_slot_;  // the first plane's column in the particles' wall springs
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;
 };

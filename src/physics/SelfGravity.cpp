@@ -9,6 +9,7 @@
 #include <fftw3.h>
 #include <mpi.h>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini {
@@ -51,20 +52,52 @@ void SelfGravity::kernels(double k, double d, double& phi, double& az) const {
   az = 0.5 * two_pi_g * (up - down);
 }
 
+ModuleKind SelfGravity::kind() {
+  auto read = [](CaseFile& f, Config& c) {
+    const std::string g = "self_gravity.";
+    if (c.boundary[0] != Boundary::Periodic || !c.periodic_like(1))
+      f.fail("domain.boundary", "x \"periodic\" and y \"periodic\" or \"lees_edwards\" with module \"self-gravity\" (its mesh solve is periodic in the plane)");
+    if (!c.planar && c.periodic_like(2))
+      f.fail("domain.boundary", "z \"open\" or \"wall\" with module \"self-gravity\" (gravity is isolated in z: a ring has no vertical images)");
+    if (c.modified_lees_edwards)
+      f.fail("domain.modified_lees_edwards", "false with module \"self-gravity\" (the two copies would need one field each)");
+    Settings s;
+    const std::vector<double> grid = f.numbers(g + "grid");
+    if (grid.size() != 3) f.fail(g + "grid", "[nx, ny, nz]: grid nodes along x, y and z");
+    for (int d = 0; d < 3; ++d) {
+      const double n = grid[d];
+      const bool in_plane = d < 2;
+      if (n != std::floor(n) || n < 1 || n > 4096 || (in_plane && (n < 4 || std::fmod(n, 2.0) != 0)))
+        f.fail(g + "grid", in_plane ? "even node counts 4..4096 along x and y" : "a node count 1..4096 along z");
+      s.grid[d] = static_cast<int>(n);
+    }
+    if (c.planar && s.grid[2] != 1) f.fail(g + "grid", "nz = 1 in a planar scene");
+    const double spacing = std::max((c.hi[0] - c.lo[0]) / grid[0], (c.hi[1] - c.lo[1]) / grid[1]);
+    s.split = f.number(g + "split", spacing);
+    if (!(s.split > 0)) f.fail(g + "split", "a length > 0 (m): the width of the Gaussian splitting mesh and pairs");
+    s.short_range = f.boolean(g + "short_range", true);
+    s.every = f.integer(g + "every", 1);
+    if (s.every < 1) f.fail(g + "every", "an integer >= 1 (steps between solves)");
+    c.set(s);
+    c.halo_reach = s.reach();
+  };
+  return {"self-gravity", {}, read, [](Simulation& sim) { return std::make_unique<SelfGravity>(sim.cfg, sim.domain); }};
+}
+
 SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
-    : nx_(cfg.self_gravity_grid[0]),
-      ny_(cfg.self_gravity_grid[1]),
-      nz_(cfg.planar ? 1 : cfg.self_gravity_grid[2]),
+    : nx_(cfg.get<Settings>().grid[0]),
+      ny_(cfg.get<Settings>().grid[1]),
+      nz_(cfg.planar ? 1 : cfg.get<Settings>().grid[2]),
       planar_(cfg.planar),
       sheared_(domain.shear.enabled),
-      short_(cfg.self_gravity_short_range),
-      reach_(cfg.self_gravity_reach()),
+      short_(cfg.get<Settings>().short_range),
+      reach_(cfg.get<Settings>().reach()),
       // at least r_s, and at most ~500 cells across the largest box side (with its halo)
       cell_size_(std::max(reach_, (domain.length.maxCoeff() + 2 * cfg.halo_range()) / 500)),
       lx_(domain.length[0]),
       ly_(domain.length[1]),
-      eps_(cfg.self_gravity_split),
-      every_(cfg.self_gravity_every),
+      eps_(cfg.get<Settings>().split),
+      every_(cfg.get<Settings>().every),
       shear_(0) {
   for (int d = 0; d < 3; ++d) lo_[d] = domain.lo[d];
   if (short_) {

@@ -43,12 +43,15 @@
 // Multiple time stepping (self_gravity.every = n): the slowly varying field is solved every
 // n steps and applied as n times its force (the impulse, r-RESPA form: symplectic, the kicks
 // n dt F at the solve steps).
+#include <array>
+#include <cmath>
 #include <complex>
 #include <cstdint>
 #include <vector>
 
 #include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
 
 namespace cassini {
@@ -57,6 +60,19 @@ struct Decomposition;
 
 class SelfGravity : public Module {
  public:
+  // [self_gravity]: a particle-mesh solve on an nx x ny x nz grid (nz = 1 when planar) for
+  // the long range, split from the short range (pairs, Newton minus the mesh's part) by a
+  // Gaussian of width `split`; solved every `every` steps (impulse multiple time stepping).
+  struct Settings {
+    std::array<int, 3> grid{0, 0, 0};
+    double split = 0;
+    bool short_range = true;
+    long every = 1;
+    // Pairs closer than this get the short-range part (0 without it): 4 sqrt 2 split, where
+    // the Gaussian's complement has fallen to 5e-7 of Newton's force.
+    double reach() const { return short_range ? 4 * std::sqrt(2.0) * split : 0.0; }
+  };
+  static ModuleKind kind();
   SelfGravity(const Config& cfg, const Decomposition& domain);
   ~SelfGravity() override;
   SelfGravity(const SelfGravity&) = delete;

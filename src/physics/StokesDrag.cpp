@@ -4,13 +4,19 @@
 #include <numbers>
 
 #include "core/Simulation.hpp"
+#include "physics/ChannelWalls.hpp"
 
 namespace cassini {
 
+ModuleKind StokesDrag::kind() {
+  auto make = [](Simulation& sim) { return std::make_unique<StokesDrag>(sim.cfg, sim.find<ChannelWalls>()->geometry()); };
+  return {"drag", {"channel"}, nullptr, make};
+}
+
 StokesDrag::StokesDrag(const Config& cfg, const ChannelGeometry& geo)
-    : cfg_(cfg), voidage_(cfg.channel.voidage), viscosity_(cfg.channel.viscosity),
-      self_volume_(cfg.channel.self_volume), faxen_(cfg.channel.confinement == "faxen"), height_(cfg.hi[2] - cfg.lo[2]),
-      phi_field_(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], cfg.hi[2] - cfg.lo[2], cfg.channel.phi_width) {}
+    : cfg_(cfg), voidage_(cfg.get<ChannelConfig>().voidage), viscosity_(cfg.get<ChannelConfig>().viscosity),
+      self_volume_(cfg.get<ChannelConfig>().self_volume), faxen_(cfg.get<ChannelConfig>().confinement == "faxen"), height_(cfg.hi[2] - cfg.lo[2]),
+      phi_field_(geo, cfg.lo[0], cfg.hi[0], cfg.lo[1], cfg.hi[1], cfg.hi[2] - cfg.lo[2], cfg.get<ChannelConfig>().phi_width) {}
 
 double StokesDrag::voidage(double phi) const {
   phi = std::min(phi, 0.7);  // beyond random close packing the correlations are meaningless
@@ -31,7 +37,7 @@ double StokesDrag::confinement(double a) const {
 
 void StokesDrag::setup(Simulation& sim) {
   flow_ = std::make_unique<FlowField>(cfg_, sim.domain.comm);
-  refresh_every_ = std::max(1L, std::lround(cfg_.channel.phi_refresh / sim.dt));
+  refresh_every_ = std::max(1L, std::lround(cfg_.get<ChannelConfig>().phi_refresh / sim.dt));
   refresh(sim);
 }
 

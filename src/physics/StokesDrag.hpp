@@ -21,6 +21,8 @@
 #include <vector>
 
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
+#include "physics/ChannelConfig.hpp"
 #include "physics/FlowField.hpp"
 #include "physics/VolumeFraction.hpp"
 
@@ -28,6 +30,7 @@ namespace cassini {
 
 class StokesDrag : public Module {
  public:
+  static ModuleKind kind();
   StokesDrag(const Config& cfg, const ChannelGeometry& geo);
   std::string name() const override { return "Stokes drag (voidage " + voidage_ + ")"; }
   unsigned stages() const override { return kForce | kRebuild; }

@@ -2,12 +2,31 @@
 // Velocity Verlet (kick-drift-kick) for translation and, when the scene rotates, for spin.
 // Forces are evaluated after the drift with x(t+dt) and the half-step velocity v(t+dt/2), so
 // velocity-dependent forces (dashpots) see v(t+dt/2). In planar scenes only x and y move.
+#include <memory>
+
+#include "core/CaseFile.hpp"
+#include "core/Config.hpp"
 #include "core/Module.hpp"
+#include "core/ModuleRegistry.hpp"
+#include "core/Simulation.hpp"
 
 namespace cassini {
 
 class VelocityVerlet : public Module {
  public:
+  // time.integrator = "verlet" (the default), in the frame's rotation (Config::frame_rotation).
+  static ModuleKind kind() {
+    auto read = [](CaseFile& f, Config&) {
+      for (const char* k : {"time.long_step", "time.max_tidal_phase"})
+        if (f.has(k)) f.fail(k, "no value unless time.integrator = \"multirate\"");
+    };
+    auto make = [](Simulation& sim) {
+      auto v = std::make_unique<VelocityVerlet>(sim.cfg.planar);
+      v->set_frame_rotation(sim.cfg.frame_rotation);
+      return v;
+    };
+    return {"verlet", {}, read, make};
+  }
   explicit VelocityVerlet(bool planar) : planar_(planar) {}
   std::string name() const override {
     return std::string("velocity-verlet") + (planar_ ? " (planar x-y)" : "") + (omega_ != 0 ? " in rotating frame" : "");

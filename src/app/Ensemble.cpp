@@ -1,4 +1,4 @@
-#include "core/Ensemble.hpp"
+#include "app/Ensemble.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -59,7 +59,7 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
       std::replace(ended.begin(), ended.end(), '\n', ' ');
     }
     if (const auto* w = sim.find<ChannelWalls>()) worst = std::max(worst, w->max_overlap_fraction());
-    if (sim.contact) worst = std::max(worst, sim.contact->max_overlap_fraction());
+    if (const auto* c = sim.find<ContactForces>()) worst = std::max(worst, c->max_overlap_fraction());
     const auto* inlet = sim.find<Inlet>();
     const long inserted = inlet ? inlet->inserted() : 0;
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
@@ -70,7 +70,7 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
       v.erase(std::remove_if(v.begin(), v.end(), [](char c) { return c == '[' || c == ']' || c == ','; }), v.end());
       return v;
     };
-    rows << k << "," << cfg.seed << "," << cfg.channel.neck_width / d << "," << (result(sim, "clogged") == "true" ? 1 : 0)
+    rows << k << "," << cfg.seed << "," << cfg.get<ChannelConfig>().neck_width / d << "," << (result(sim, "clogged") == "true" ? 1 : 0)
          << "," << result(sim, "escapees") << "," << (ct == "null" ? "" : ct) << "," << sim.time << "," << inserted << ","
          << worst << "," << wall << "," << field("front_time") << "," << field("escapees_after_front") << ","
          << field("avalanches") << "," << field("avalanche_starts") << "," << field("longest_pause") << "," << ended << "\n";

@@ -12,8 +12,9 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
+#include "io/ReadConfig.hpp"
 #include "core/Simulation.hpp"
-#include "core/Ensemble.hpp"
+#include "app/Ensemble.hpp"
 #include "io/RunOutput.hpp"
 #include "io/Snapshot.hpp"
 #include "physics/StokesDrag.hpp"

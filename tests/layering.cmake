@@ -1,0 +1,20 @@
+# The layering rule of docs/developing.md: the core and the communication layer know no
+# physics, no output format and no application code (src/core, src/parallel include only
+# each other), and only src/physics/Registry.cpp names the concrete modules' kinds.
+file(GLOB lower ${SRC}/core/* ${SRC}/parallel/*)
+foreach(f ${lower})
+  file(STRINGS ${f} bad REGEX "#include \"(physics|io|app|cg)/")
+  if(bad)
+    message(FATAL_ERROR "${f} includes a higher layer: ${bad}")
+  endif()
+endforeach()
+file(GLOB_RECURSE all ${SRC}/*.cpp ${SRC}/*.hpp)
+foreach(f ${all})
+  if(NOT f MATCHES "physics/Registry.cpp$")
+    file(STRINGS ${f} named REGEX "[A-Za-z]+::kind\\(\\),")
+    if(named)
+      message(FATAL_ERROR "${f} lists module kinds; only src/physics/Registry.cpp may: ${named}")
+    endif()
+  endif()
+endforeach()
+message(STATUS "layering: ok")
