@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
 #include <stdexcept>
 #include <map>
 
@@ -325,4 +326,50 @@ n_c = 10
 end = 1.0e6
 )";
   expect_restart_bitwise(ring);
+}
+
+// A module's own per-particle column (ParticleStore::declare) needs no code of its own to
+// travel: with its particle between the ranks, to the ghosts every step, and through a
+// snapshot and a restart. The values are a known function of the id and the step (the owner
+// sets them after each step; the next step carries them to the ghosts), so any particle that
+// lost, swapped or kept stale values is found.
+TEST(ModuleColumns, TravelWithTheirParticlesThroughMigrationGhostsAndRestart) {
+  auto tag = [](std::int64_t id, int k, long step) {
+    return k == 0 ? 3.0 * double(id) + 0.5 + double(step) : -double(id) - 1000.0 * double(step);
+  };
+  auto set = [&](Simulation& s, std::size_t c, long step) {
+    for (std::size_t i = 0; i < s.particles.nlocal; ++i)
+      for (int k = 0; k < 2; ++k) s.particles.column(c, i)[k] = tag(s.particles.id[i], k, step);
+  };
+  auto wrong = [&](const Simulation& s, std::size_t c, long step) {
+    long bad = 0;
+    for (std::size_t i = 0; i < s.particles.size(); ++i)  // owned and ghosts
+      for (int k = 0; k < 2; ++k) bad += s.particles.column(c, i)[k] != tag(s.particles.id[i], k, step);
+    return bad;
+  };
+  const std::string dir = scratch();
+  auto a = make_sim(kScene);
+  const std::size_t c = a->particles.declare("tag", 2, true);
+  a->setup();
+  std::set<std::int64_t> first;
+  for (std::size_t i = 0; i < a->particles.nlocal; ++i) first.insert(a->particles.id[i]);
+  set(*a, c, 0);
+  for (long s = 1; s <= 800; ++s) {
+    a->step();
+    if (s % 50 == 0) EXPECT_EQ(wrong(*a, c, s - 1), 0) << "step " << s;
+    set(*a, c, s);
+  }
+  long arrived = 0, migrated = 0;  // particles this rank owns now that another rank owned at the start
+  for (std::size_t i = 0; i < a->particles.nlocal; ++i) arrived += !first.count(a->particles.id[i]);
+  MPI_Allreduce(&arrived, &migrated, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(migrated, 10) << "the test needs particles that changed rank";
+  EXPECT_GT(a->particles.nghost(), 10u) << "the test needs ghosts";
+
+  const std::string file = write_snapshot(*a, dir, "# case text");  // rebuilds: ghosts get step 800's values
+  auto b = make_sim(kScene);
+  const std::size_t cb = b->particles.declare("tag", 2, true);
+  read_snapshot(*b, file);
+  b->setup();
+  EXPECT_EQ(wrong(*b, cb, 800), 0) << "after the restart";
+  EXPECT_THROW(b->particles.declare("late", 1, false), std::logic_error);  // particles exist already
 }

@@ -1,6 +1,7 @@
 #include "core/ParticleStore.hpp"
 
 #include <cstring>
+#include <stdexcept>
 #include <type_traits>
 
 namespace cassini {
@@ -88,6 +89,21 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
     if (vec.capacity() < out.capacity()) vec.reserve(out.capacity());  // room for the ghosts
   });
   nlocal = order.size();
+}
+
+std::size_t ParticleStore::declare(const std::string& name, int width, bool ghosts) {
+  for (const auto& c : module_columns)
+    if (c.name == name) throw std::logic_error("particle column '" + name + "' declared twice");
+  if (size() != 0) throw std::logic_error("particle column '" + name + "' declared after particles exist");
+  module_columns.push_back({name, width, ghosts, {}});
+  return module_columns.size() - 1;
+}
+
+int ParticleStore::ghost_column_width() const {
+  int w = 0;
+  for (const auto& c : module_columns)
+    if (c.ghosts) w += c.width;
+  return w;
 }
 
 std::size_t ParticleStore::packed_size() const {

@@ -7,6 +7,7 @@
 // Rotation arrays (omega, torque, inv_inertia) exist only when the scene has friction; a
 // frictionless scene never allocates them.
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/Vec3.hpp"
@@ -44,6 +45,23 @@ struct ParticleStore {
   // (the main box, with the moonlet), 1 = LE2 (the moonlet-free feed). Particles of different
   // copies never touch; ghosts carry it.
   std::vector<std::uint8_t> le_copy;
+
+  // Per-particle values a module declares for itself (declare(), when the module is made):
+  // `width` doubles per particle in `data`. They migrate with their particle, go into
+  // snapshots as particles/grains/<name> and come back on a restart, and with `ghosts` the
+  // ghosts carry them too (refreshed every step). Zero for a new particle.
+  struct ModuleColumn {
+    std::string name;
+    int width;
+    bool ghosts;
+    std::vector<double> data;
+  };
+  std::vector<ModuleColumn> module_columns;
+  // Returns the column's index in module_columns. Declared before any particle exists.
+  std::size_t declare(const std::string& name, int width, bool ghosts);
+  double* column(std::size_t c, std::size_t i) { return &module_columns[c].data[i * module_columns[c].width]; }
+  const double* column(std::size_t c, std::size_t i) const { return &module_columns[c].data[i * module_columns[c].width]; }
+  int ghost_column_width() const;  // doubles per ghost of the columns with `ghosts`
 
   std::size_t size() const { return id.size(); }
   std::size_t nghost() const { return size() - nlocal; }
@@ -91,6 +109,7 @@ struct ParticleStore {
     if (p.impacts) visit(p.wall_impact, p.walls, true);
     if (p.rolling) visit(p.wall_roll, p.walls, true);
     if (p.copies) visit(p.le_copy, 1, true);
+    for (auto& c : p.module_columns) visit(c.data, c.width, true);
   }
 };
 

@@ -1,6 +1,8 @@
 #include "io/SnapshotSchema.hpp"
 
+#include <algorithm>
 #include <cstring>
+#include <stdexcept>
 
 #include "core/ParticleStore.hpp"
 
@@ -84,6 +86,16 @@ std::vector<GrainColumn> grain_columns(const ParticleStore& p) {
     c.push_back({"le_copy", GrainColumn::Int32, 1,
                  [](const P& q, const Body&, std::size_t i, double* o) { o[0] = q.le_copy[i]; },
                  [](P& q, std::size_t i, const double* in) { q.le_copy[i] = static_cast<std::uint8_t>(in[0]); }});
+  // The modules' own columns (ParticleStore::declare).
+  for (std::size_t k = 0; k < p.module_columns.size(); ++k) {
+    const int w = p.module_columns[k].width;
+    for (const auto& taken : c)
+      if (taken.name == p.module_columns[k].name)
+        throw std::logic_error("particle column '" + taken.name + "' would replace the snapshot's own");
+    c.push_back({p.module_columns[k].name, GrainColumn::Real, w,
+                 [k](const P& q, const Body&, std::size_t i, double* o) { std::copy_n(q.column(k, i), q.module_columns[k].width, o); },
+                 [k, w](P& q, std::size_t i, const double* in) { std::copy_n(in, w, q.column(k, i)); }});
+  }
   return c;
 }
 
