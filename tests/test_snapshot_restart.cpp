@@ -155,6 +155,26 @@ TEST(Snapshot, RollingResistanceRestartsBitwise) {
   expect_restart_bitwise(scene);
 }
 
+TEST(Snapshot, LubricatedPileRestartsBitwise) {
+  // Stiff films in a settling pile: the many-film scaling reads each bead's film load from the
+  // previous step (particles/grains/lubrication_load), which the snapshot must carry.
+  std::string scene = kScene;
+  scene.replace(scene.find("modules = [\"contact\", \"gravity\"]"), 32,
+                "modules = [\"contact\", \"gravity\", \"lubrication\"]");
+  scene += "[lubrication]\nviscosity = 100.0\nroughness = 1.0e-7\n";
+  auto probe = make_sim(scene);
+  probe->setup();
+  for (int s = 0; s < 500; ++s) probe->step();
+  const ParticleStore& p = probe->particles;
+  double load = 0, most = 0;
+  for (const auto& c : p.module_columns)
+    if (c.name == "lubrication_load")
+      for (std::size_t i = 0; i < p.nlocal; ++i) load = std::max(load, c.data[i]);
+  MPI_Allreduce(&load, &most, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  EXPECT_GT(most, 2.0) << "the test needs beads whose films are scaled (a load above 2 scales every film of the bead)";
+  expect_restart_bitwise(scene);
+}
+
 TEST(Snapshot, BridgesContactsRestartBitwise) {
   // Under the Bridges law every contact's e was fixed at its impact: the impact speeds of the
   // contacts open at the snapshot (pairs, and particles on the floor wall) travel in it.

@@ -19,40 +19,66 @@ ModuleKind Lubrication::kind() {
     c.set(s);
     c.pair_reach = c.max_radius();  // h <= d/2 for the largest pair
   };
-  auto make = [](Simulation& sim) { return std::make_unique<Lubrication>(sim.cfg.get<LubricationSettings>(), sim.dt); };
+  auto make = [](Simulation& sim) {
+    auto lub = std::make_unique<Lubrication>(sim.cfg.get<LubricationSettings>(), sim.dt);
+    lub->load_ = sim.particles.declare("lubrication_load", 1, true);  // D_i; ghosts need it too
+    return lub;
+  };
   return {"lubrication", {}, read, make};
 }
 
 Lubrication::Lubrication(const LubricationSettings& s, double dt)
     : roughness_(s.roughness), viscosity_(s.viscosity), dt_(dt) {}
 
-Vec3 Lubrication::pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj) const {
-  const double r = d.norm(), a_star = ai * aj / (ai + aj);
+double Lubrication::relaxation(double r, double ai, double aj, double mi, double mj) const {
+  const double a_star = ai * aj / (ai + aj);
   const double gap = r - ai - aj;
-  if (gap > 2 * a_star || r == 0) return Vec3::Zero();
-  const Vec3 n = d / r;
+  if (gap > 2 * a_star || r == 0) return 0.0;
   const double h = std::max(gap, 2 * roughness_);
   const double m_star = mi * mj / (mi + mj);
   const double beta = 6 * std::numbers::pi * viscosity_ * a_star * a_star / (h * m_star);
-  const double rate = -std::expm1(-beta * dt_) / dt_;  // -> beta when beta dt << 1
+  return -std::expm1(-beta * dt_);
+}
+
+Vec3 Lubrication::pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj,
+                             double scale) const {
+  const double r = d.norm();
+  const double c = relaxation(r, ai, aj, mi, mj);
+  if (c == 0) return Vec3::Zero();
+  const Vec3 n = d / r;
+  const double m_star = mi * mj / (mi + mj);
+  const double rate = c * scale / dt_;  // -> beta when beta dt << 1 (scale 1: bitwise c / dt)
   return (-m_star * rate * dv.dot(n)) * n;
+}
+
+double Lubrication::scale(const ParticleStore& p, std::size_t i, std::size_t j) const {
+  const double load = p.column(load_, i)[0] + p.column(load_, j)[0];  // the same sum from either side
+  return load > 2 ? 2 / load : 1.0;
 }
 
 void Lubrication::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   long active = 0;
+  next_.assign(p.nlocal, 0.0);
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     Vec3 sum = Vec3::Zero();
+    double load = 0;
+    const double mi = p.mass[i];
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
       const std::uint32_t j = nl.partner[k];
-      const Vec3 f = pair_force(p.x[i] - p.x[j], p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
-      if (f.isZero(0)) continue;
-      sum += f;
+      const Vec3 d = p.x[i] - p.x[j];
+      const double mj = p.mass[j];
+      const double c = relaxation(d.norm(), p.radius[i], p.radius[j], mi, mj);
+      if (c == 0) continue;
+      sum += pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], mi, mj, scale(p, i, j));
+      load += c * (mi * mj / (mi + mj)) * (1 / mi + 1 / std::sqrt(mi * mj));
       ++active;
     }
     p.f[i] += sum;
+    next_[i] = load;
   }
+  for (std::size_t i = 0; i < p.nlocal; ++i) p.column(load_, i)[0] = next_[i];  // read by the next step
   active_ = active;
 }
 
@@ -64,7 +90,7 @@ void Lubrication::pair_forces(const Simulation& sim, std::vector<PairForce>& out
       const std::uint32_t j = nl.partner[k];
       if (p.id[i] >= p.id[j]) continue;
       const Vec3 d = p.x[i] - p.x[j];
-      const Vec3 f = pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
+      const Vec3 f = pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j], scale(p, i, j));
       if (!f.isZero(0)) out.push_back({p.id[i], p.id[j], p.x[i], d, f});
     }
 }

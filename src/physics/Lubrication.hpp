@@ -14,9 +14,22 @@
 // m* beta: the same force when beta dt << 1, and it never reverses the approach velocity of
 // an isolated pair however small eps_r is.
 //
+// Many films at once (a dense pile, a held clog): the relaxations, exact for an isolated pair,
+// add up on a bead with many films, and summed as they are they overshoot once the films are
+// stiff (beta dt >~ 1): the pile's kinetic energy then grows geometrically (eps_r = 0.1 % of d
+// in issue 19). Each film's relaxation c = 1 - exp(-beta dt) is therefore scaled by
+//   s_ij = min(1, 2 / (D_i + D_j)),   D_i = sum over i's films of c m* (1/m_i + 1/sqrt(m_i m_j)),
+// the bead's film load. With it the step's velocity update v -> v - A v has, in the
+// mass-weighted norm, every eigenvalue of A in [0, 2] (Gershgorin: each row sum of the scaled
+// relaxations is at most 2), so the films never add kinetic energy, however many and however
+// stiff. An isolated pair (D_i + D_j = 2c <= 2) and any dilute film network keep s = 1: the
+// force is unchanged where the plain sum was already stable. D comes from the previous step
+// (a particle column the ghosts carry), so both sides of a pair scale alike.
+//
 // Evaluated from each side with the same operations, so the pair forces cancel bitwise.
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
+#include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
 
 namespace cassini {
@@ -34,8 +47,11 @@ class Lubrication : public Module {
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;
   void pair_forces(const Simulation& sim, std::vector<PairForce>& out) const override;
-  // The force on i for one pair, from (x_i - x_j), (v_i - v_j), radii and masses.
-  Vec3 pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj) const;
+  // The force on i for one pair, from (x_i - x_j), (v_i - v_j), radii and masses; `scale`:
+  // the many-film scaling s_ij (1 for an isolated pair).
+  Vec3 pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj, double scale = 1.0) const;
+  // The film's relaxation over one step, 1 - exp(-beta dt) (0 beyond the film's reach).
+  double relaxation(double r, double ai, double aj, double mi, double mj) const;
   long active_pairs() const { return active_; }
   // lubricated_pairs: pairs within the film's reach at the last force evaluation.
   void observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) override;
@@ -43,6 +59,9 @@ class Lubrication : public Module {
  private:
   double roughness_, viscosity_, dt_;
   long active_ = 0;
+  std::size_t load_ = 0;      // the particle column of D_i (ParticleStore::declare)
+  std::vector<double> next_;  // this step's D_i of the owned particles, stored at the end
+  double scale(const ParticleStore& p, std::size_t i, std::size_t j) const;
 };
 
 }  // namespace cassini
