@@ -6,6 +6,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
+#include "physics/WallContact.hpp"
 
 namespace cassini {
 
@@ -58,7 +59,7 @@ void ChannelWalls::force(Simulation& sim) {
   if (candidates_.size() != p.nlocal) post_rebuild(sim);
   const bool fric = law_.friction(), exact = law_.exact();
   const double dt = law_.dt();
-  double worst = 0;
+  DeepestOverlap deepest;
   shifts_.clear();
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const std::uint64_t cand = candidates_[i];
@@ -92,23 +93,17 @@ void ChannelWalls::force(Simulation& sim) {
       }
       const Vec3 n(c.nx, c.ny, 0);
       const double delta = a - c.distance;
-      if (delta <= 0 && delta + p.v[i].dot(n) * dt <= 0) continue;  // not touching, nor a step ago
-      Vec3 torque;
-      double shift = 0;
-      p.f[i] += law_.wall_force(p, i, n, delta, fric && delta > 0 ? &xi[c.feature] : nullptr, torque, true, &shift,
-                                nullptr, roll && delta > 0 ? &roll[c.feature] : nullptr);
-      move += shift * n;
-      if (fric && delta > 0) p.torque[i] += torque;
-      if (delta / a > worst) { worst = delta / a; worst_id_ = p.id[i]; }
+      if (wall_contact(law_, p, i, n, delta, wall_springs(p, fric, i, first_slot_ + c.feature), move))
+        deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);
   }
-  max_overlap_ = worst;
+  max_overlap_ = deepest.fraction;
+  worst_id_ = deepest.id;
 }
 
 void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
   const ParticleStore& p = sim.particles;
-  const bool fric = law_.friction();
   std::vector<WallContact> touching;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     touching.clear();
@@ -116,10 +111,7 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
     for (const auto& c : touching) {
       if (c.distance <= 0) continue;
       const Vec3 n(c.nx, c.ny, 0);
-      Vec3 spring = fric ? p.wall_xi[i * p.walls + first_slot_ + c.feature] : Vec3::Zero(), torque;
-      Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + first_slot_ + c.feature] : Vec3::Zero();
-      const Vec3 f = law_.wall_force(p, i, n, p.radius[i] - c.distance, fric ? &spring : nullptr, torque,
-                                     false, nullptr, nullptr, &roll);  // the step already advanced the springs
+      const Vec3 f = wall_contact_force(law_, p, i, n, p.radius[i] - c.distance, first_slot_ + c.feature);
       out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
     }
   }

@@ -4,6 +4,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
+#include "physics/WallContact.hpp"
 
 namespace cassini {
 
@@ -59,10 +60,9 @@ void Moonlet::force(Simulation& sim) {
     for (std::size_t i = 0; i < T.count; ++i) pull(i);
   else
     for (std::size_t t = 0; t < T.count; ++t) pull(T[t]);
-  double worst = 0;
+  DeepestOverlap deepest;
   long contacts = 0;
   const bool exact = law_.exact();
-  const double dt = law_.dt();
   shifts_.clear();
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
@@ -71,37 +71,27 @@ void Moonlet::force(Simulation& sim) {
     const double d2 = x * x + y * y + z * z, reach = R + A[i];
     // With friction each particle keeps a tangential spring with the moonlet (its last wall
     // slot), reset when it lets go, as with any wall; the ring scene is frictionless.
-    Vec3* xi = fric ? &p.wall_xi[i * p.walls + slot_] : nullptr;
-    double* impact = p.impacts ? &p.wall_impact[i * p.walls + slot_] : nullptr;  // Bridges restitution
-    Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + slot_] : nullptr;         // rolling resistance
-    if (d2 >= reach * reach || d2 == 0) {
-      if (xi) xi->setZero();
-      if (roll) roll->setZero();
-      // The exact scheme's exit step: touching a step ago. A particle moves less than its radius
-      // per step (the tunnelling guard), so only this shell needs the test.
-      const double far = reach + A[i];
-      if (!exact || d2 == 0 || d2 >= far * far) {
-        if (impact) *impact = 0;
-        continue;
-      }
+    const WallSprings springs = wall_springs(p, fric, i, slot_);
+    // Most particles are far: no square root for them. Only this shell can hold the exact
+    // scheme's exit step (a particle moves less than its radius per step: the tunnelling guard).
+    const double far = exact ? reach + A[i] : reach;
+    if (d2 >= far * far || d2 == 0) {
+      if (springs.xi) springs.xi->setZero();
+      if (springs.roll) springs.roll->setZero();
+      if (springs.impact) *springs.impact = 0;
+      continue;
     }
     const double d = std::sqrt(d2), delta = reach - d;
     const Vec3 normal = Vec3(x, y, z) / d;
-    if (delta <= 0 && delta + p.v[i].dot(normal) * dt <= 0) {
-      if (impact) *impact = 0;
-      continue;
-    }
-    Vec3 torque;
-    double shift = 0;
-    F[i] += law_.wall_force(p, i, normal, delta, delta > 0 ? xi : nullptr, torque, true, &shift, impact,
-                            delta > 0 ? roll : nullptr, radius_);
-    if (shift != 0) shifts_.add(i, shift * normal);
-    if (delta <= 0) continue;
-    if (fric) p.torque[i] += torque;
-    if (delta / A[i] > worst) { worst = delta / A[i]; worst_id_ = p.id[i]; }
+    Vec3 move = Vec3::Zero();
+    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_);
+    if (!move.isZero(0)) shifts_.add(i, move);
+    if (!touching) continue;
+    deepest.see(delta, A[i], p.id[i]);
     ++contacts;
   }
-  max_overlap_ = worst;
+  max_overlap_ = deepest.fraction;
+  worst_id_ = deepest.id;
   contacts_ = contacts;
 }
 
@@ -113,12 +103,7 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
     if (dims_ == 2) r[2] = 0;
     const double d = r.norm();
     if (d >= radius_ + p.radius[i] || d == 0) continue;
-    const bool fric = law_.friction();
-    Vec3 xi = fric ? p.wall_xi[i * p.walls + slot_] : Vec3::Zero(), torque;
-    double impact = p.impacts ? p.wall_impact[i * p.walls + slot_] : 0.0;
-    Vec3 roll = p.rolling ? p.wall_roll[i * p.walls + slot_] : Vec3::Zero();
-    const Vec3 f = law_.wall_force(p, i, r / d, radius_ + p.radius[i] - d, fric ? &xi : nullptr, torque,
-                                   false, nullptr, &impact, &roll, radius_);  // the step already advanced the springs
+    const Vec3 f = wall_contact_force(law_, p, i, r / d, radius_ + p.radius[i] - d, slot_, radius_);
     out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
   }
 }
