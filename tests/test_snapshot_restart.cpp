@@ -376,7 +376,9 @@ TEST(ModuleColumns, TravelWithTheirParticlesThroughMigrationGhostsAndRestart) {
   set(*a, c, 0);
   for (long s = 1; s <= 800; ++s) {
     a->step();
-    if (s % 50 == 0) EXPECT_EQ(wrong(*a, c, s - 1), 0) << "step " << s;
+    if (s % 50 == 0) {
+      EXPECT_EQ(wrong(*a, c, s - 1), 0) << "step " << s;
+    }
     set(*a, c, s);
   }
   long arrived = 0, migrated = 0;  // particles this rank owns now that another rank owned at the start

@@ -305,7 +305,7 @@ void Simulation::run(RunSink* out) {
   auto last_print = t0;
   long last_step = step_count;
   output_ = out;
-  timers.seconds.fill(0);  // the stages of the step loop only (not set-up, not a previous run)
+  timers.reset();  // the stages of the step loop only (not set-up, not a previous run)
   if (out) {
     out->observe(*this);
     if (dump_every) out->dump(*this, "step");

@@ -261,7 +261,8 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   MPI_Bcast(&wall0, 1, MPI_DOUBLE, 0, comm_);
   constexpr int ns = StageTimers::kStages + 1;
   std::array<double, ns> t{};
-  for (int k = 0; k < StageTimers::kStages; ++k) t[k] = sim.timers.seconds[k];
+  const auto stage_seconds = sim.timers.seconds();
+  for (int k = 0; k < StageTimers::kStages; ++k) t[k] = stage_seconds[k];
   double staged = 0;
   for (int k = 0; k < StageTimers::kStages; ++k) staged += t[k];
   t[ns - 1] = std::max(0.0, wall0 - staged);

@@ -28,15 +28,37 @@ ModuleKind PlaneWalls::kind() {
 PlaneWalls::PlaneWalls(const Config& cfg, double dt, int first_slot)
     : law_(cfg, dt), planes_(domain_walls(cfg)), first_slot_(first_slot) {}
 
+void PlaneWalls::post_rebuild(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const int nw = static_cast<int>(planes_.size());
+  candidates_.assign(p.nlocal, 0);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (int w = 0; w < nw; ++w) {
+      // Between rebuilds a particle moves less than skin / 2: a plane further than this is out of
+      // reach, and its springs are zero already (cleared here all the same, as a guarantee).
+      if ((p.x[i] - planes_[w].point).dot(planes_[w].normal) < p.radius[i] + sim.skin) {
+        candidates_[i] |= std::uint8_t(1u << w);
+        continue;
+      }
+      const WallSprings s = wall_springs(p, law_.friction(), i, first_slot_ + w);
+      if (s.xi) s.xi->setZero();
+      if (s.roll) s.roll->setZero();
+      if (s.impact) *s.impact = 0;
+    }
+}
+
 void PlaneWalls::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
+  if (candidates_.size() != p.nlocal) post_rebuild(sim);
   const int nw = static_cast<int>(planes_.size());
   DeepestOverlap deepest;
   shifts_.clear();
   for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!candidates_[i]) continue;  // most particles: far from every wall
     const double a = p.radius[i];
     Vec3 move = Vec3::Zero();
     for (int w = 0; w < nw; ++w) {
+      if (!(candidates_[i] >> w & 1)) continue;
       const Plane& pl = planes_[w];
       const double delta = a - (p.x[i] - pl.point).dot(pl.normal);
       if (wall_contact(law_, p, i, pl.normal, delta, wall_springs(p, law_.friction(), i, first_slot_ + w), move))

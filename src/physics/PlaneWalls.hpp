@@ -3,6 +3,7 @@
 // feels the same LSD law as a particle-particle contact with the wall as an infinite mass
 // (m_ij = m_i), using the particle's own species parameters. Each (particle, wall) keeps its
 // own tangential spring, stored with the particle so it migrates with it.
+#include <cstdint>
 #include <vector>
 
 #include "core/Module.hpp"
@@ -21,8 +22,9 @@ class PlaneWalls : public Module {
   static ModuleKind kind();  // the domain faces declared "wall" (added to `modules` by itself)
   PlaneWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
-  unsigned stages() const override { return kForce | (law_.exact() ? kFinalIntegrate : 0u); }
+  unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
   void force(Simulation& sim) override;
+  void post_rebuild(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
   const std::vector<Plane>& planes() const { return planes_; }
@@ -35,6 +37,9 @@ class PlaneWalls : public Module {
   PendingShifts shifts_;
   std::vector<Plane> planes_;
   int first_slot_;  // the first plane's column in the particles' wall springs
+  // Per particle, the planes within its radius + skin at the last rebuild (one bit each): the
+  // only ones it can touch, or have touched a step ago, before the next rebuild.
+  std::vector<std::uint8_t> candidates_;
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;
 };
