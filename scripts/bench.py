@@ -8,7 +8,7 @@ if not os.path.exists(LAMMPS_IN):
     LAMMPS_IN = "/work/shared/peers/lammps/in.gas"
 ENV = dict(os.environ, OMPI_MCA_btl_vader_single_copy_mechanism="none")
 MPI = ["mpirun", "--oversubscribe"] + (["--allow-run-as-root"] if os.getuid() == 0 else [])
-SIZES = {50000: (50, 40, 25), 200000: (80, 50, 50)}
+SIZES = {50000: (50, 40, 25), 200000: (80, 50, 50), 1000: (10, 10, 10)}  # 1000: the baseline run
 
 # The LAMMPS scene in LJ units: d = 1, density 1, kn = 2000, e = 0.9, dt = t_c/50.
 m = math.pi / 6
@@ -73,7 +73,8 @@ def run_cassini(n, friction, ranks, tmp):
         sys.exit("cassini failed:\n" + r.stdout + r.stderr)
     s = json.load(open(os.path.join(out, "summary.json")))
     rss = peak_rss_kb(r.stderr)
-    return s["particle_steps_per_second"] / ranks, sum(rss) * 1024 / n
+    stages = {k: v["mean"] for k, v in s.get("stage_seconds", {}).items()}
+    return s["particle_steps_per_second"] / ranks, sum(rss) * 1024, stages
 
 
 def run_lammps(n, friction, ranks):
@@ -86,15 +87,23 @@ def run_lammps(n, friction, ranks):
         r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
         log = open(os.path.join(d, "log.lammps")).read()
     t = float(re.search(r"Loop time of ([0-9.eE+-]+) on", log).group(1))
-    return n * STEPS / t / ranks, sum(peak_rss_kb(r.stderr)) * 1024 / n
+    return n * STEPS / t / ranks, sum(peak_rss_kb(r.stderr)) * 1024
 
 
 def main():
     print(f"granular gas phi=0.3, t_c={tc:.5f}, dt=t_c/50, {STEPS} steps, {REPEATS} repeats (medians)")
-    print(f"{'N':>7} {'mu':>4} {'ranks':>5} | {'cassini p-steps/s/core':>22} {'B/particle':>10} | "
-          f"{'LAMMPS p-steps/s/core':>21} {'B/particle':>10} | ratio")
+    print("memory per particle: gross = peak resident set of all ranks / N (with the MPI runtime);")
+    print("net = (that - the same code's peak for a 1,000-particle run) / (N - 1,000)")
+    print(f"{'N':>7} {'mu':>4} {'ranks':>5} | {'cassini p-steps/s/core':>22} {'B/p gross':>9} {'net':>5} | "
+          f"{'LAMMPS p-steps/s/core':>21} {'B/p gross':>9} {'net':>5} | ratio")
     ratios1 = []
+    breakdown = {}
     with tempfile.TemporaryDirectory() as tmp:
+        base = {}
+        for ranks in (1, 2):  # each code's footprint without particles to speak of
+            for friction in (0, 1):
+                base[("c", ranks, friction)] = statistics.median(run_cassini(1000, friction, ranks, tmp)[1] for _ in range(REPEATS))
+                base[("l", ranks, friction)] = statistics.median(run_lammps(1000, friction, ranks)[1] for _ in range(REPEATS))
         for n in (50000, 200000):
             for friction in (0, 1):
                 for ranks in (1, 2):
@@ -104,14 +113,23 @@ def main():
                         l.append(run_lammps(n, friction, ranks))
                     cs, cm = statistics.median(x[0] for x in c), statistics.median(x[1] for x in c)
                     ls, lm = statistics.median(x[0] for x in l), statistics.median(x[1] for x in l)
-                    print(f"{n:>7} {0.5 * friction:>4} {ranks:>5} | {cs:>22.3e} {cm:>10.0f} | {ls:>21.3e} {lm:>10.0f} | {cs / ls:.2f}",
-                          flush=True)
+                    cnet = (cm - base[("c", ranks, friction)]) / (n - 1000)
+                    lnet = (lm - base[("l", ranks, friction)]) / (n - 1000)
+                    print(f"{n:>7} {0.5 * friction:>4} {ranks:>5} | {cs:>22.3e} {cm / n:>9.0f} {cnet:>5.0f} | "
+                          f"{ls:>21.3e} {lm / n:>9.0f} {lnet:>5.0f} | {cs / ls:.2f}", flush=True)
                     if ranks == 1:
                         ratios1.append(cs / ls)
                         single = (n, friction, cs, ls)
+                        runs = sorted(c, key=lambda x: x[0])
+                        breakdown[(n, friction)] = runs[len(runs) // 2][2]
                     else:
                         print(f"{'':>19}2-rank parallel efficiency: cassini {cs / single[2]:.2f}, LAMMPS {ls / single[3]:.2f}")
-    print("(memory: peak resident set of all ranks / N, including the MPI runtime)")
+    print("cassini, 1 rank, time per stage (% of the step loop, the median run):")
+    names = ["pair", "neighbour", "integrate", "comm", "modules", "output", "other"]
+    print(f"{'N':>7} {'mu':>4} | " + " ".join(f"{k:>9}" for k in names))
+    for (n, friction), st in breakdown.items():
+        total = sum(st.values()) or 1.0
+        print(f"{n:>7} {0.5 * friction:>4} | " + " ".join(f"{100 * st.get(k, 0) / total:>8.1f}%" for k in names))
     print(f"ratio cassini/lammps: {statistics.median(ratios1):.2f}")
 
 
