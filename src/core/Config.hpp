@@ -92,7 +92,7 @@ struct Config {
   template <class T>
   const T& get() const { return std::any_cast<const T&>(find_settings(typeid(T))); }
   template <class T>
-  T& edit() { return std::any_cast<T&>(const_cast<std::any&>(find_settings(typeid(T)))); }
+  T& edit() { return std::any_cast<T&>(find_settings(typeid(T))); }
 
   std::vector<Species> species;
 
@@ -156,6 +156,9 @@ struct Config {
 
  private:
   const std::any& find_settings(const std::type_index& type) const;
+  std::any& find_settings(const std::type_index& type) {
+    return const_cast<std::any&>(static_cast<const Config&>(*this).find_settings(type));
+  }
 };
 
 }  // namespace cassini

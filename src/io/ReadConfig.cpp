@@ -19,11 +19,6 @@ int axis_index(CaseFile& f, const std::string& key, const std::string& v) {
   f.fail(key, "one of \"x\", \"y\", \"z\"");
 }
 
-double positive(CaseFile& f, const std::string& key, std::optional<double> fallback = std::nullopt) {
-  return f.positive(key, fallback);
-}
-
-double non_negative(CaseFile& f, const std::string& key, double fallback) { return f.non_negative(key, fallback); }
 
 }  // namespace
 
@@ -63,7 +58,7 @@ Config read_config(CaseFile& f) {
     const std::string p = "species[" + std::to_string(i) + "].";
     Species s;
     s.name = f.string(p + "name", "species" + std::to_string(i));
-    s.density = positive(f, p + "density");
+    s.density = f.positive(p + "density");
     const std::string sizes = f.string(p + "size_distribution", f.has(p + "radii") ? "list" : "uniform");
     if (sizes == "list") {
       s.sizes.kind = SizeDistribution::List;
@@ -91,10 +86,10 @@ Config read_config(CaseFile& f) {
       s.radius_min = r.front();
       s.radius_max = r.back();
     } else if (f.has(p + "radius")) {
-      s.radius_min = s.radius_max = positive(f, p + "radius");
+      s.radius_min = s.radius_max = f.positive(p + "radius");
     } else {
-      s.radius_min = positive(f, p + "radius_min");
-      s.radius_max = positive(f, p + "radius_max");
+      s.radius_min = f.positive(p + "radius_min");
+      s.radius_max = f.positive(p + "radius_max");
       if (s.radius_max < s.radius_min) f.fail(p + "radius_max", "a value >= radius_min");
     }
     if (sizes == "power_law") {
@@ -106,17 +101,17 @@ Config read_config(CaseFile& f) {
     }
     const std::string model = f.string(p + "model", "linear");
     if (model == "hertz") {
-      s.youngs_modulus = positive(f, p + "youngs_modulus");
+      s.youngs_modulus = f.positive(p + "youngs_modulus");
       s.poisson_ratio = f.number(p + "poisson_ratio", 0.3);
       if (!(s.poisson_ratio >= 0 && s.poisson_ratio < 0.5)) f.fail(p + "poisson_ratio", "a Poisson ratio in [0, 0.5)");
-      s.impact_speed = positive(f, p + "impact_speed");
+      s.impact_speed = f.positive(p + "impact_speed");
       if (f.has(p + "t_c"))
         f.fail(p + "t_c", "no t_c with model = \"hertz\" (the contact lasts longer the slower the impact: give "
                           "impact_speed, the fastest expected, and t_c follows)");
     } else if (model == "linear") {
       for (const char* k : {"youngs_modulus", "poisson_ratio", "impact_speed"})
         if (f.has(p + k)) f.fail(p + k, std::string(k) + " only with model = \"hertz\"");
-      s.t_c = positive(f, p + "t_c");
+      s.t_c = f.positive(p + "t_c");
     } else {
       f.fail(p + "model", "\"linear\" (spring-dashpot, t_c and e) or \"hertz\" (Hertz-Mindlin: youngs_modulus, poisson_ratio, e)");
     }
@@ -124,7 +119,7 @@ Config read_config(CaseFile& f) {
     if (law == "bridges") {
       if (f.has(p + "e"))
         f.fail(p + "e", "no e with restitution = \"bridges\" (each impact's e comes from its speed: (u/v_c)^-0.234)");
-      s.v_c = positive(f, p + "v_c", kBridgesVc);
+      s.v_c = f.positive(p + "v_c", kBridgesVc);
       s.e = 1;
     } else if (law == "constant") {
       if (f.has(p + "v_c")) f.fail(p + "v_c", "v_c only with restitution = \"bridges\"");
@@ -133,21 +128,21 @@ Config read_config(CaseFile& f) {
     } else {
       f.fail(p + "restitution", "\"constant\" (a fixed e) or \"bridges\" (e = (u/v_c)^-0.234 per impact)");
     }
-    s.mu_s = non_negative(f, p + "mu_s", 0.0);
-    s.mu_d = non_negative(f, p + "mu_d", s.mu_s);
-    s.mu_r = non_negative(f, p + "mu_r", 0.0);
-    s.mu_o = non_negative(f, p + "mu_o", 0.0);
-    s.eta_r = non_negative(f, p + "eta_r", 0.3);
+    s.mu_s = f.non_negative(p + "mu_s", 0.0);
+    s.mu_d = f.non_negative(p + "mu_d", s.mu_s);
+    s.mu_r = f.non_negative(p + "mu_r", 0.0);
+    s.mu_o = f.non_negative(p + "mu_o", 0.0);
+    s.eta_r = f.non_negative(p + "eta_r", 0.3);
     if ((s.mu_r > 0 || s.mu_o > 0) && !(s.mu_s > 0))
       f.fail(p + (s.mu_r > 0 ? "mu_r" : "mu_o"), "rolling or twisting resistance only with sliding friction (mu_s > 0)");
     if (s.mu_d > s.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
     // Walls may be slipperier or rougher than the particles (glass channel, coated beads).
     const bool own_wall = f.has(p + "wall_mu_s");
-    s.wall_mu_s = non_negative(f, p + "wall_mu_s", s.mu_s);
-    s.wall_mu_d = non_negative(f, p + "wall_mu_d", own_wall ? s.wall_mu_s : s.mu_d);
+    s.wall_mu_s = f.non_negative(p + "wall_mu_s", s.mu_s);
+    s.wall_mu_d = f.non_negative(p + "wall_mu_d", own_wall ? s.wall_mu_s : s.mu_d);
     if (s.wall_mu_d > s.wall_mu_s) f.fail(p + "wall_mu_d", "a dynamic friction <= wall_mu_s");
-    s.kt_ratio = non_negative(f, p + "kt_ratio", 2.0 / 7.0);
-    s.gammat_ratio = non_negative(f, p + "gammat_ratio", 2.0 / 7.0);
+    s.kt_ratio = f.non_negative(p + "kt_ratio", 2.0 / 7.0);
+    s.gammat_ratio = f.non_negative(p + "gammat_ratio", 2.0 / 7.0);
     if ((s.mu_s > 0 || s.wall_mu_s > 0) && !(s.kt_ratio > 0))  // a sliding spring is stretched to mu_d f_n / k_t
       f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 when the species has friction (mu_s > 0)");
     if (s.youngs_modulus > 0) {
@@ -192,12 +187,12 @@ Config read_config(CaseFile& f) {
       idx[q] = std::size_t(it - c.species.begin());
     }
     PairParameters pp = c.pairs[idx[0] * n + idx[1]];
-    pp.t_c = positive(f, p + "t_c", pp.t_c);
+    pp.t_c = f.positive(p + "t_c", pp.t_c);
     // A table that gives e means a constant e; one that gives neither keeps the mixed law.
     const std::string law = f.string(p + "restitution", pp.v_c > 0 && !f.has(p + "e") ? "bridges" : "constant");
     if (law == "bridges") {
       if (f.has(p + "e")) f.fail(p + "e", "no e with restitution = \"bridges\"");
-      pp.v_c = positive(f, p + "v_c", pp.v_c > 0 ? pp.v_c : kBridgesVc);
+      pp.v_c = f.positive(p + "v_c", pp.v_c > 0 ? pp.v_c : kBridgesVc);
       pp.e = 1;
     } else if (law == "constant") {
       if (f.has(p + "v_c")) f.fail(p + "v_c", "v_c only with restitution = \"bridges\"");
@@ -208,16 +203,16 @@ Config read_config(CaseFile& f) {
       f.fail(p + "restitution", "\"constant\" or \"bridges\"");
     }
     law_set[idx[0] * n + idx[1]] = law_set[idx[1] * n + idx[0]] = f.has(p + "restitution") || f.has(p + "e");
-    pp.mu_s = non_negative(f, p + "mu_s", pp.mu_s);
-    pp.mu_d = non_negative(f, p + "mu_d", std::min(pp.mu_d, pp.mu_s));
-    pp.mu_r = non_negative(f, p + "mu_r", pp.mu_r);
-    pp.mu_o = non_negative(f, p + "mu_o", pp.mu_o);
-    pp.eta_r = non_negative(f, p + "eta_r", pp.eta_r);
+    pp.mu_s = f.non_negative(p + "mu_s", pp.mu_s);
+    pp.mu_d = f.non_negative(p + "mu_d", std::min(pp.mu_d, pp.mu_s));
+    pp.mu_r = f.non_negative(p + "mu_r", pp.mu_r);
+    pp.mu_o = f.non_negative(p + "mu_o", pp.mu_o);
+    pp.eta_r = f.non_negative(p + "eta_r", pp.eta_r);
     if ((pp.mu_r > 0 || pp.mu_o > 0) && !(pp.mu_s > 0))
       f.fail(p + "mu_r", "rolling or twisting resistance only with sliding friction (mu_s > 0)");
     if (pp.mu_d > pp.mu_s) f.fail(p + "mu_d", "a dynamic friction <= mu_s");
-    pp.kt_ratio = non_negative(f, p + "kt_ratio", pp.kt_ratio);
-    pp.gammat_ratio = non_negative(f, p + "gammat_ratio", pp.gammat_ratio);
+    pp.kt_ratio = f.non_negative(p + "kt_ratio", pp.kt_ratio);
+    pp.gammat_ratio = f.non_negative(p + "gammat_ratio", pp.gammat_ratio);
     if (pp.mu_s > 0 && !(pp.kt_ratio > 0)) f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 with friction");
     c.pairs[idx[0] * n + idx[1]] = c.pairs[idx[1] * n + idx[0]] = pp;
   }
@@ -274,9 +269,9 @@ Config read_config(CaseFile& f) {
   c.force_dt = f.boolean("time.force", false);
   if (f.has("time.dt") && f.has("time.n_c")) f.fail("time.n_c", "either time.dt or time.n_c, not both");
   if (f.has("time.dt")) {
-    c.dt = positive(f, "time.dt");
+    c.dt = f.positive("time.dt");
   } else {
-    const double nc = positive(f, "time.n_c", 50.0);
+    const double nc = f.positive("time.n_c", 50.0);
     c.dt = tc_min / nc;
   }
   // Below N_c = 10 Verlet's restitution is badly wrong; the exact scheme is exact at any N_c
@@ -302,7 +297,7 @@ Config read_config(CaseFile& f) {
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt below the stability limit " + std::to_string(dt_stable) +
                " of the contact scheme (unstable beyond, even with time.force)");
-  c.t_end = positive(f, "time.end");
+  c.t_end = f.positive("time.end");
   c.integrator = f.string("time.integrator", integrator_kinds().front().name);
   {
     const auto& ik = integrator_kinds();
@@ -323,10 +318,10 @@ Config read_config(CaseFile& f) {
   if (it == c.species.end()) f.fail("particles.species", "the name of a [[species]]");
   c.init_species = static_cast<int>(it - c.species.begin());
   c.velocity_mean = f.vec3("particles.velocity", Vec3(0, 0, 0));
-  c.velocity_sigma = non_negative(f, "particles.velocity_sigma", 0.0);
+  c.velocity_sigma = f.non_negative("particles.velocity_sigma", 0.0);
   c.shear_flow = f.boolean("particles.shear_flow", false);
   if (c.shear_flow && !c.sheared()) f.fail("particles.shear_flow", "a \"lees_edwards\" y boundary (it sets the flow)");
-  c.dispersion_fraction = non_negative(f, "particles.dispersion", 0.0);
+  c.dispersion_fraction = f.non_negative("particles.dispersion", 0.0);
   if (c.init == "random" || c.init == "lattice") {
     const int given = f.has("particles.count") + f.has("particles.volume_fraction") + f.has("particles.optical_depth");
     if (given != 1)
@@ -362,16 +357,16 @@ Config read_config(CaseFile& f) {
   }
 
   // ---- output
-  c.dump_every = non_negative(f, "output.dump_every", 0.0);
-  c.snapshot_every = non_negative(f, "output.snapshot_every", 0.0);
-  c.snapshot_from = non_negative(f, "output.snapshot_from", 0.0);
-  c.observe_every = non_negative(f, "output.observe_every", c.t_end / 100);
-  c.progress_every = positive(f, "output.progress_every", 2.0);
+  c.dump_every = f.non_negative("output.dump_every", 0.0);
+  c.snapshot_every = f.non_negative("output.snapshot_every", 0.0);
+  c.snapshot_from = f.non_negative("output.snapshot_from", 0.0);
+  c.observe_every = f.non_negative("output.observe_every", c.t_end / 100);
+  c.progress_every = f.positive("output.progress_every", 2.0);
 
   // ---- guards
-  c.max_overlap_fraction = positive(f, "guards.max_overlap", 0.2);
-  c.energy_growth = positive(f, "guards.energy_growth", 1e3);
-  c.max_step = positive(f, "guards.max_step", 0.5);
+  c.max_overlap_fraction = f.positive("guards.max_overlap", 0.2);
+  c.energy_growth = f.positive("guards.energy_growth", 1e3);
+  c.max_step = f.positive("guards.max_step", 0.5);
 
   // A box too small for the interaction range cannot be decomposed or imaged correctly.
   const double range = c.halo_range();

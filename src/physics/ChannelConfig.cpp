@@ -11,12 +11,6 @@
 namespace cassini {
 namespace {
 
-double positive(CaseFile& f, const std::string& key, std::optional<double> fallback = std::nullopt) {
-  const double v = f.number(key, fallback);
-  if (!(v > 0)) f.fail(key, "a positive number");
-  return v;
-}
-
 std::vector<Point2> polyline(CaseFile& f, const std::string& key) {
   std::vector<Point2> pts = f.points(key);
   if (pts.size() < 2) f.fail(key, "at least 2 points");
@@ -42,7 +36,7 @@ void read_channel_config(CaseFile& f, Config& c) {
   } else {
     // The thesis's neck: straight walls at y = +-w/2 converging into a neck of width D at the
     // contraction angle (135 deg: walls at 45 deg to the axis), opening at the expansion angle.
-    const double D = positive(f, "channel.neck_width");
+    const double D = f.positive("channel.neck_width");
     if (D >= 2 * half) f.fail("channel.neck_width", "a width smaller than the domain's y extent");
     const double ca = f.number("channel.contraction_angle", 135.0), ea = f.number("channel.expansion_angle", 120.0);
     if (!(ca > 90 && ca < 180)) f.fail("channel.contraction_angle", "an angle in (90, 180) degrees");
@@ -77,12 +71,12 @@ void read_channel_config(CaseFile& f, Config& c) {
 
   // [flow]
   const double D = ch.neck_width;
-  ch.mean_velocity = positive(f, "flow.mean_velocity");
-  ch.viscosity = positive(f, "flow.viscosity", 1.8e-3);
-  ch.fluid_density = positive(f, "flow.density", 1050.0);
+  ch.mean_velocity = f.positive("flow.mean_velocity");
+  ch.viscosity = f.positive("flow.viscosity", 1.8e-3);
+  ch.fluid_density = f.positive("flow.density", 1050.0);
   ch.resolution = static_cast<int>(f.integer("flow.resolution", 16));
   if (ch.resolution < 2 || ch.resolution % 2) f.fail("flow.resolution", "an even number of cells per neck width, >= 2");
-  ch.solve_half_length = positive(f, "flow.solve_half_length", 5 * D);
+  ch.solve_half_length = f.positive("flow.solve_half_length", 5 * D);
   const std::string walls = f.string("flow.walls", "embedded");
   ch.embedded_walls = walls == "embedded";
   if (walls != "embedded" && walls != "staircase")
@@ -97,26 +91,26 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.voidage = f.string("drag.voidage", "beetstra");
   if (ch.voidage != "beetstra" && ch.voidage != "thesis" && ch.voidage != "stokes")
     f.fail("drag.voidage", "\"beetstra\" (default, f -> 1 when dilute), \"thesis\" (2 k phi/(1-phi)^2) or \"stokes\" (f = 1)");
-  ch.phi_width = positive(f, "drag.width", 100e-6);
+  ch.phi_width = f.positive("drag.width", 100e-6);
   ch.self_volume = f.boolean("drag.self_volume", true);
   ch.confinement = f.string("drag.confinement", "none");
   if (ch.confinement != "none" && ch.confinement != "faxen")
     f.fail("drag.confinement", "\"none\" (default) or \"faxen\" (Faxen's factor for a sphere midway between two walls)");
-  ch.phi_refresh = positive(f, "drag.refresh", 1e-3);
+  ch.phi_refresh = f.positive("drag.refresh", 1e-3);
 
   // [inlet]
-  ch.inlet_length = positive(f, "inlet.length", D);
+  ch.inlet_length = f.positive("inlet.length", D);
   ch.inlet_x = f.number("inlet.x", c.lo[0] + ch.inlet_length);
   if (ch.inlet_x - 0.5 * ch.inlet_length < c.lo[0] || ch.inlet_x + 0.5 * ch.inlet_length > ch.neck_x0)
     f.fail("inlet.x", "an insertion zone (x +- length/2) inside the domain and upstream of the neck");
   ch.inlet_fraction = f.number("inlet.volume_fraction", 0.2);
   if (!(ch.inlet_fraction > 0 && ch.inlet_fraction < 0.5)) f.fail("inlet.volume_fraction", "a volume fraction in (0, 0.5)");
-  ch.inlet_every = positive(f, "inlet.every", ch.inlet_length / (4 * ch.mean_velocity));
+  ch.inlet_every = f.positive("inlet.every", ch.inlet_length / (4 * ch.mean_velocity));
   ch.inlet_attempts = static_cast<int>(f.integer("inlet.attempts", 200));
   if (ch.inlet_attempts < 1) f.fail("inlet.attempts", "a positive integer");
 
   // [clog]
-  ch.clog_window = positive(f, "clog.window", 1.0);
+  ch.clog_window = f.positive("clog.window", 1.0);
   ch.pass_x = f.number("clog.pass_x", ch.neck_x1 + c.max_radius());
   ch.rest_speed = f.number("clog.rest_speed", 1e-6 * ch.mean_velocity);
   if (!(ch.rest_speed >= 0)) f.fail("clog.rest_speed", "a speed >= 0 (0 turns the early end at rest off)");

@@ -84,7 +84,7 @@ void ContactForces::force(Simulation& sim) {
       if (LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
       if (j < i) {  // owned partner, already evaluated from j's side
         if (!T[k]) continue;
-        const MirrorResult& r = OUT[k];
+        const MirrorResult& r = OUT[MIRROR[k]];  // a receiving entry holds its pair's result slot
         fsum += r.f;
         if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
           const Vec3 d = xi - X[j];
@@ -135,8 +135,9 @@ void ContactForces::force(Simulation& sim) {
               const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(law_of(S[j], si, mk), m, R - r, vn) : ns;
               if (nj.fn != 0 || nj.shift != 0) {
                 T[mk] = kParted;
-                OUT[mk].f = -(nj.fn * n);
-                OUT[mk].shift = nj.shift;
+                MirrorResult& out = OUT[MIRROR[mk]];
+                out.f = -(nj.fn * n);
+                out.shift = nj.shift;
               }
             }
           }
@@ -203,7 +204,7 @@ void ContactForces::force(Simulation& sim) {
         // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
         if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
         const bool own_law = vdep && U[mk] != U[k];
-        MirrorResult& out = OUT[mk];
+        MirrorResult& out = OUT[MIRROR[mk]];
         out.frac = frac;
         out.shift = shift;
         if (!fric && !own_law) {
@@ -344,15 +345,20 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   mirror_.assign(nl.size(), kNoMirror);
-  mirrored_.resize(nl.size());
+  std::uint32_t pairs = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
       const std::uint32_t j = nl.partner[k];
       if (j <= i || j >= p.nlocal) continue;
       for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
-        if (nl.partner[q] == i) { mirror_[k] = q; break; }
+        if (nl.partner[q] == i) {
+          mirror_[k] = q;        // the evaluating entry: the partner's entry
+          mirror_[q] = pairs++;  // the receiving entry: its pair's slot in mirrored_
+          break;
+        }
       if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");
     }
+  mirrored_.resize(pairs);  // one result per owned pair, not per list entry: half the memory
 }
 
 void ContactForces::pre_rebuild(Simulation& sim) {

@@ -69,8 +69,10 @@ class ContactForces : public Module {
   }
 
  private:
-  // Per list entry of an owned pair: the partner's entry for the same pair (kNoMirror when
-  // the partner is a ghost), and the partner-side result written when the pair is evaluated.
+  // Per list entry: on the entry that evaluates an owned pair (partner above), the partner's
+  // entry for the same pair; on the partner's (receiving) entry, the pair's slot in mirrored_,
+  // where the partner-side result is written when the pair is evaluated; kNoMirror for a
+  // ghost partner.
   static constexpr std::uint32_t kNoMirror = 0xffffffffu;
   struct MirrorResult {
     Vec3 f, torque;
