@@ -20,6 +20,13 @@ namespace fs = std::filesystem;
 namespace cassini {
 
 namespace {
+// observables.csv's own columns; the modules' (Module::observables) follow.
+const char* const kObservablesHeader =
+    "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
+    "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts";
+}  // namespace
+
+namespace {
 
 // errno is often gone by the time a stream reports failure (a later flush): ask the file system.
 std::string write_reason(const std::string& file) {
@@ -163,13 +170,7 @@ void RunOutput::observe(Simulation& sim) {
   std::vector<std::pair<std::string, double>> own;  // the modules' own columns (collective)
   for (const auto& m : sim.modules) m->observables(sim, own);
   if (rank_ != 0) return;
-  if (!header_written_) {
-    obs_ << "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
-            "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts";
-    for (const auto& [name, value] : own) obs_ << "," << name;
-    obs_ << "\n";
-    header_written_ = true;
-  }
+  if (!header_written_) write_header(own);
   const double contacts = sums[4];
   obs_ << std::setprecision(12) << sim.step_count << "," << sim.time << "," << n << "," << ke << "," << pe << ","
        << mom[0] << "," << mom[1] << "," << mom[2] << "," << sums[1] / mass << "," << sums[2] / mass << ","
@@ -324,6 +325,19 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   for (const auto& [k, v] : sim.results) js << ",\n  " << json_string(k) << ": " << v;
   js << "\n}\n";
   write_text("summary.json", js.str());
+}
+
+void RunOutput::write_header(const std::vector<std::pair<std::string, double>>& own) {
+  obs_ << kObservablesHeader;
+  for (const auto& [name, value] : own) obs_ << "," << name;
+  obs_ << "\n";
+  checked_flush(obs_, "observables.csv");
+  header_written_ = true;
+}
+
+RunOutput::~RunOutput() {
+  if (rank_ != 0 || header_written_ || !obs_.is_open()) return;
+  obs_ << kObservablesHeader << "\n";  // best effort: no throwing here
 }
 
 void RunOutput::error_summary(const std::string& reason) {

@@ -27,6 +27,9 @@ class RunOutput : public RunSink {
   // the restart snapshot), a non-empty directory without --force, and with --force one that
   // cassini did not make.
   RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<std::string>& keep = {});
+  // A run that wrote no observables row (an ensemble, an early error) still leaves
+  // observables.csv with its column names.
+  ~RunOutput();
   void log(const std::string& line) override;        // rank 0: stdout and run.log
   void log_only(const std::string& line);            // rank 0: run.log (already on stderr)
   void write_text(const std::string& name, const std::string& text);  // rank 0
@@ -46,6 +49,7 @@ class RunOutput : public RunSink {
  private:
   std::string timing_;
   bool header_written_ = false;  // observables.csv: its header names the modules' columns too
+  void write_header(const std::vector<std::pair<std::string, double>>& module_columns);  // rank 0
   void checked_flush(std::ofstream& out, const std::string& name);  // a failed write ends the job
   std::string dir_;
   int rank_ = 0;
