@@ -285,6 +285,9 @@ end = 1.0
       for (const auto& mod : sim->modules) mod->wall_forces(*sim, walls);
       ASSERT_EQ(walls.size(), 2u);
       for (const auto& wf : walls) EXPECT_NEAR(wf.force[0], -F / 2, 1e-6 * F) << "tangential force at z = " << wf.point[2];
+      // Stored energy: each wall's normal spring 1/2 k delta^2 and tangential 1/2 k_t (F / 2 k_t)^2.
+      const double stored = 2 * (0.5 * k * delta * delta + 0.5 * kt * (F / (2 * kt)) * (F / (2 * kt)));
+      EXPECT_NEAR(sim->elastic_energy(), stored, 1e-6 * stored) << "elastic energy of the two wall contacts";
     } else {
       const double accel = (p.v[0][0] - v_mid) / (sim->time - t_mid);
       EXPECT_NEAR(accel, (F - 2 * mu_d * fn) / m, 1e-6 * F / m) << "sliding";
@@ -665,6 +668,11 @@ end = 1.0
         EXPECT_NEAR(xi, F / (2 * kt), 1e-6 * F / (2 * kt)) << "spring of wall " << wall;
       }
       EXPECT_EQ(springs, 2);
+      // Stored energy: each wall's Hertz spring 8/15 E* sqrt(a) delta^5/2 and Mindlin's
+      // 1/2 k_t (F / 2 k_t)^2.
+      const double stored = 2 * (8.0 / 15.0 * Es * std::sqrt(a) * std::pow(delta, 2.5) +
+                                 0.5 * kt * (F / (2 * kt)) * (F / (2 * kt)));
+      EXPECT_NEAR(sim->elastic_energy(), stored, 1e-6 * stored) << "elastic energy of the two wall contacts";
     } else {
       const double accel = (p.v[0][0] - v_mid) / (sim->time - t_mid);
       EXPECT_NEAR(accel, (F - 2 * mu_d * fn) / m, 1e-6 * F / m) << "sliding";

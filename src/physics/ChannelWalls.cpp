@@ -119,4 +119,18 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
 
 void ChannelWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
+double ChannelWalls::elastic_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  std::vector<WallContact> touching;
+  double e = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    touching.clear();
+    geometry_.contacts(p.x[i][0], p.x[i][1], p.radius[i], touching);
+    for (const auto& c : touching)
+      if (c.distance > 0)
+        e += wall_contact_energy(law_, p, i, Vec3(c.nx, c.ny, 0), p.radius[i] - c.distance, first_slot_ + c.feature);
+  }
+  return e;
+}
+
 }  // namespace cassini

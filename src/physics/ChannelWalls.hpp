@@ -24,6 +24,7 @@ class ChannelWalls : public Module {
   void final_integrate(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
+  double elastic_energy(const Simulation& sim) const override;
   double max_overlap_fraction() const override { return max_overlap_; }
   std::int64_t worst_id() const override { return worst_id_; }
   std::string overlap_label() const override { return "channel wall overlap"; }

@@ -260,15 +260,11 @@ double ContactForces::elastic_energy(const Simulation& sim) const {
       const double R = p.radius[i] + p.radius[j], r = (p.x[i] - p.x[j]).norm();
       if (r >= R) continue;
       const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
-      const PairLaw L = entry_law(p.species[i], p.species[j], k);
-      const double delta = R - r;
-      if (L.e_star > 0) {  // Hertz: 8/15 E* sqrt(R*) delta^5/2, half per side (friction's share omitted)
-        const double reff = p.radius[i] * p.radius[j] / R;
-        e += 0.5 * (8.0 / 15.0) * L.e_star * std::sqrt(reff * delta) * delta * delta;
-        continue;
-      }
-      e += 0.25 * m * L.k_per_mass * delta * delta;  // 1/2 k delta^2, half per side
-      if (law_.friction()) e += 0.25 * L.kt_ratio * m * L.k_per_mass * xi_[k].squaredNorm();
+      const Vec3 n = (p.x[i] - p.x[j]) / r;
+      const bool springs = law_.friction() && k < xi_.size();
+      e += 0.5 * law_.spring_energy(entry_law(p.species[i], p.species[j], k), m, R - r, p.radius[i] * p.radius[j] / R, n,
+                                    springs ? &xi_[k] : nullptr,
+                                    springs && law_.rolling() && k < roll_.size() ? &roll_[k] : nullptr);  // half per side
     }
   return e;
 }

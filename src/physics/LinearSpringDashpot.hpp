@@ -319,6 +319,47 @@ class LinearSpringDashpot {
     return f + ft;
   }
 
+  // Elastic energy stored in one contact at overlap delta > 0: the normal spring (linear:
+  // 1/2 k delta^2; Hertz: 8/15 E* sqrt(R*) delta^5/2), the tangential spring xi (1/2 k_t |xi|^2,
+  // k_t linear or Mindlin's at this overlap) and the rolling and twisting torque springs
+  // (|M|^2 / 2k for each part, k as in rolling()). m: reduced mass; reff: reduced radius; n the
+  // contact normal; xi, roll: null where the contact keeps none.
+  double spring_energy(const PairLaw& L, double m, double delta, double reff, const Vec3& n, const Vec3* xi,
+                       const Vec3* roll) const {
+    if (!(delta > 0)) return 0.0;
+    const bool hertz = L.e_star > 0;
+    double e = hertz ? (8.0 / 15.0) * L.e_star * std::sqrt(reff * delta) * delta * delta
+                     : 0.5 * m * L.k_per_mass * delta * delta;
+    if (xi) {
+      const double kt = hertz ? 8 * L.g_star * std::sqrt(reff * delta) : L.kt_ratio * m * L.k_per_mass;
+      e += 0.5 * kt * xi->squaredNorm();
+    }
+    if (roll && (L.mu_r > 0 || L.mu_o > 0)) {
+      const double kn = hertz ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;
+      const Vec3 twist = roll->dot(n) * n, bend = *roll - twist;
+      auto part = [&](const Vec3& M, double mu) { return mu > 0 ? M.squaredNorm() / (2 * 2.25 * kn * mu * mu * reff * reff) : 0.0; };
+      e += part(bend, L.mu_r) + part(twist, L.mu_o);
+    }
+    return e;
+  }
+  // The same for particle i of p against a wall (its species' wall law; impact: the contact's
+  // Bridges impact speed, or null).
+  double wall_spring_energy(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, const Vec3* xi,
+                            const double* impact, const Vec3* roll, double wall_radius = 0) const {
+    const double a = p.radius[i];
+    const int sp = p.species[i];
+    const PairLaw* L = &wall_table_[sp];
+    PairLaw own;
+    if (L->v_c > 0) {
+      own = at_impact(sp, sp, impact ? *impact : 0.0);
+      own.mu_s = L->mu_s;
+      own.mu_d = L->mu_d;
+      L = &own;
+    }
+    const double reff = wall_radius > 0 ? a * wall_radius / (a + wall_radius) : a;
+    return spring_energy(*L, p.mass[i], delta, reff, n, xi, roll);
+  }
+
   // Rolling and twisting resistance, the elastic-plastic spring-dashpot (Ai, Chen, Rotter & Ooi
   // 2011, their model C; twisting alike): a torque spring M on the relative spin
   // w = omega_i - omega_j, in its rolling part (across n) and its twisting part (along n). Each

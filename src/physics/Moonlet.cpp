@@ -108,6 +108,20 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
   }
 }
 
+double Moonlet::elastic_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  double e = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (!feels(p, i)) continue;
+    Vec3 r = p.x[i];
+    if (dims_ == 2) r[2] = 0;
+    const double d = r.norm();
+    if (d >= radius_ + p.radius[i] || d == 0) continue;
+    e += wall_contact_energy(law_, p, i, r / d, radius_ + p.radius[i] - d, slot_, radius_);
+  }
+  return e;
+}
+
 double Moonlet::potential_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
   double u = 0;

@@ -30,6 +30,7 @@ class Moonlet : public Module {
   void final_integrate(Simulation& sim) override;
   void force(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
+  double elastic_energy(const Simulation& sim) const override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
   double potential_energy(const Simulation& sim) const override;  // -G M m / r (uniform sphere inside)
 

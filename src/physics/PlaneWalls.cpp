@@ -83,6 +83,17 @@ void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out)
     }
 }
 
+double PlaneWalls::elastic_energy(const Simulation& sim) const {
+  const ParticleStore& p = sim.particles;
+  double e = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    for (std::size_t w = 0; w < planes_.size(); ++w) {
+      const double delta = p.radius[i] - (p.x[i] - planes_[w].point).dot(planes_[w].normal);
+      if (delta > 0) e += wall_contact_energy(law_, p, i, planes_[w].normal, delta, first_slot_ + int(w));
+    }
+  return e;
+}
+
 void PlaneWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
 }  // namespace cassini

@@ -27,6 +27,7 @@ class PlaneWalls : public Module {
   void post_rebuild(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
+  double elastic_energy(const Simulation& sim) const override;
   const std::vector<Plane>& planes() const { return planes_; }
   double max_overlap_fraction() const override { return max_overlap_; }
   std::int64_t worst_id() const override { return worst_id_; }

@@ -64,6 +64,16 @@ inline Vec3 wall_contact_force(const LinearSpringDashpot& law, const ParticleSto
                         wall_radius);
 }
 
+// The elastic energy of a touching wall point (observables): its normal, tangential and
+// rolling springs (LinearSpringDashpot::spring_energy).
+inline double wall_contact_energy(const LinearSpringDashpot& law, const ParticleStore& p, std::size_t i, const Vec3& n,
+                                  double delta, int slot, double wall_radius = 0) {
+  const std::size_t k = i * p.walls + slot;
+  return law.wall_spring_energy(p, i, n, delta, law.friction() ? &p.wall_xi[k] : nullptr,
+                                p.impacts ? &p.wall_impact[k] : nullptr, p.rolling ? &p.wall_roll[k] : nullptr,
+                                wall_radius);
+}
+
 // The deepest overlap a wall module saw in its last force evaluation (Module::max_overlap_fraction).
 struct DeepestOverlap {
   double fraction = 0;
