@@ -237,8 +237,9 @@ void write_contacts(hid_t file, const Simulation& sim, hid_t dxpl) {
   id_column(cg, "owner", sr, springs, &HistoryEntry::owner, dxpl);
   id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
   vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
-  double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
-  vec3_column(cg, "roll", sr, springs, &HistoryEntry::roll, dxpl);
+  // Only in scenes that keep them (a restart reads a missing column as zeros).
+  if (sim.particles.impacts) double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
+  if (sim.particles.rolling) vec3_column(cg, "roll", sr, springs, &HistoryEntry::roll, dxpl);
   std::vector<PairForce> pairs;
   std::vector<WallForce> walls;
   for (const auto& mod : sim.modules) {

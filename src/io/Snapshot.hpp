@@ -13,16 +13,16 @@
 //                                  body_force: the non-contact part (gravity, drag, frame forces)
 //   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
 //   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
-//   contacts/{owner, partner, xi, impact_speed, roll}   contact history: tangential springs,
-//                                  (Bridges restitution) impact speeds, (rolling resistance)
-//                                  torque springs; restart needs them
+//   contacts/{owner, partner, xi, impact_speed*, roll*}   contact history: tangential springs,
+//                                  impact speeds (* only under the Bridges law), torque springs
+//                                  (* only with rolling resistance); restart needs them
 //   contacts/{pair_ids, position_i, branch, force}   pair forces, each pair once (contacts and
 //                                  lubrication), at the snapshot state: for stress (cassini-cg)
 //   contacts/{wall_particle, wall_point, wall_branch, wall_force}   particle-wall contacts
 //   parameters/                    case (resolved TOML text), run_id, units; wall_xi per particle
 //   parameters/state/<name>        run state a restart restores (inlet ids, clog timer, outlet counts)
 //   results                        attributes: the run's results so far (as in summary.json)
-// (* only when the scene rotates)
+// (* on grains: only when the scene rotates)
 #include <string>
 
 namespace cassini {
