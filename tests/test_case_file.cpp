@@ -90,6 +90,14 @@ TEST(CaseFile, WrongTypesAreRefused) {
 TEST(CaseFile, UnknownKeysAndModulesAreRefused) {
   expect_error({"domain.bondary=1"}, "domain.bondary", "unknown key");
   expect_error({"modules=[\"contact\", \"magnetism\"]"}, "modules", "unknown module 'magnetism'");
+  // The known names come from the registry: all of them, and in its (force) order.
+  expect_error({"modules=[\"magnetism\"]"}, "modules",
+               "{contact, lubrication, walls, channel, drag, inlet, clog, moonlet, hill, gravity, self-gravity}");
+  expect_error({"modules=[\"contact\", \"drag\"]"}, "modules", "\"channel\" with \"drag\"");
+  // A module reads only its own table, and only when listed.
+  expect_error({"moonlet.mass=1.0"}, "moonlet.mass", "unknown key");
+  expect_error({"time.long_step=1.0"}, "time.long_step", "multirate");
+  expect_error({"time.integrator=\"leapfrog\""}, "time.integrator", "\"verlet\" or \"multirate\"");
   expect_error({"particles.init=\"poured\""}, "particles.init", "\"random\", \"lattice\"");
 }
 
