@@ -1,0 +1,76 @@
+#include "physics/LinearSpringDashpot.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "physics/HertzMindlin.hpp"
+
+namespace cassini {
+
+LinearSpringDashpot::LinearSpringDashpot(const Config& cfg, double dt) : n_(static_cast<int>(cfg.species.size())), dt_(dt) {
+  clip_ = cfg.clip_normal;
+  exact_ = cfg.exact_contacts;
+  friction_ = cfg.friction();
+  table_.resize(n_ * n_);
+  for (int a = 0; a < n_; ++a)
+    for (int b = 0; b < n_; ++b) {
+      // Each pair its own t_c and e through its reduced mass (spec section 1); unlike pairs
+      // mix their species' values unless a [[pair]] table sets them (Config::pair).
+      const PairParameters& q = cfg.pair(a, b);
+      const double omega = std::numbers::pi / q.t_c;
+      PairLaw& L = table_[a * n_ + b];
+      L.kt_ratio = q.kt_ratio;
+      L.gammat_ratio = q.gammat_ratio;
+      L.mu_s = q.mu_s;
+      L.mu_d = q.mu_d;
+      L.omega = omega;
+      L.cos_w = std::cos(omega * dt);
+      L.sin_w = std::sin(omega * dt);
+      L.t_c = q.t_c;
+      L.v_c = q.v_c;
+      half_[a * n_ + b] = std::sin(0.5 * omega * dt);
+      set_damping(L, -std::log(q.e) / q.t_c, half_[a * n_ + b]);
+      L.e = q.e;
+      L.e_star = q.e_star;
+      L.g_star = q.g_star;
+      L.c_hertz = q.e_star > 0 ? hertz_damping_constant(q.e) : 0.0;
+      L.mu_r = q.mu_r;
+      L.mu_o = q.mu_o;
+      L.eta_r = q.eta_r;
+      rolling_ = rolling_ || q.mu_r > 0 || q.mu_o > 0;
+      hertz_ = hertz_ || q.e_star > 0;
+    }
+  velocity_dependent_ = cfg.velocity_dependent_restitution();
+  // Against walls: the species' own law with its wall friction.
+  for (int a = 0; a < n_; ++a) {
+    wall_table_.push_back(table_[a * n_ + a]);
+    wall_table_.back().mu_s = cfg.species[a].wall_mu_s;
+    wall_table_.back().mu_d = cfg.species[a].wall_mu_d;
+  }
+}
+
+void LinearSpringDashpot::set_damping(PairLaw& L, double eta, double half) const {
+  const double dt = dt_, omega = L.omega;
+  const double rho = std::exp(-eta * dt), one_minus_rho = -std::expm1(-eta * dt);
+  L.eta = eta;
+  L.k_per_mass = omega * omega + eta * eta;
+  L.gamma_per_mass = 2 * eta;
+  L.k_eff = (one_minus_rho * one_minus_rho + 4 * rho * half * half) / (dt * dt);
+  L.gamma_eff = -std::expm1(-2 * eta * dt) / dt;  // (1 - rho^2) / dt
+  L.exp_eta = std::exp(eta * dt);
+  L.e = std::exp(-eta * L.t_c);
+}
+
+// The law of one contact whose impact had normal speed u, for a pair whose restitution
+// follows the Bridges law: e(u) = min(1, (u / v_c)^-0.234), t_c fixed (so k and gamma
+// follow e, as in soft-sphere ring codes). Every quantity is a function of u alone, so the
+// two sides of a pair (same u, bitwise) get the same law.
+
+PairLaw LinearSpringDashpot::at_impact(int a, int b, double u) const {
+  PairLaw L = table_[a * n_ + b];
+  const double eta = u > L.v_c ? kBridgesExponent * std::log(u / L.v_c) / L.t_c : 0.0;
+  set_damping(L, eta, half_[a * n_ + b]);
+  return L;
+}
+
+}  // namespace cassini
