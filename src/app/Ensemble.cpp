@@ -70,7 +70,9 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
       v.erase(std::remove_if(v.begin(), v.end(), [](char c) { return c == '[' || c == ']' || c == ','; }), v.end());
       return v;
     };
-    rows << k << "," << cfg.seed << "," << cfg.get<ChannelConfig>().neck_width / d << "," << (result(sim, "clogged") == "true" ? 1 : 0)
+    rows << k << "," << cfg.seed << ",";
+    if (cfg.has<ChannelConfig>()) rows << cfg.get<ChannelConfig>().neck_width / d;  // empty for a scene without a channel
+    rows << "," << (result(sim, "clogged") == "true" ? 1 : 0)
          << "," << result(sim, "escapees") << "," << (ct == "null" ? "" : ct) << "," << sim.time << "," << inserted << ","
          << worst << "," << wall << "," << field("front_time") << "," << field("escapees_after_front") << ","
          << field("avalanches") << "," << field("avalanche_starts") << "," << field("longest_pause") << "," << ended << "\n";
