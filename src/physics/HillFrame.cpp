@@ -24,13 +24,15 @@ ModuleKind HillFrame::kind() {
   return {"hill", {}, read, [](Simulation& sim) { return std::make_unique<HillFrame>(sim.cfg); }};
 }
 
-HillFrame::HillFrame(const Config& cfg)
-    : exact_(cfg.get<HillSettings>().form == "exact"),
-      planar_(cfg.planar),
-      omega_(cfg.get<HillSettings>().omega0()),
-      gm_(kGravitationalConstant * cfg.get<HillSettings>().saturn_mass),
-      r0_(cfg.get<HillSettings>().orbit_radius) {
-  const double wz = cfg.get<HillSettings>().vertical_frequency * omega_;
+HillFrame::HillFrame(const Config& cfg) : HillFrame(cfg.get<HillSettings>(), cfg.planar) {}
+
+HillFrame::HillFrame(const HillSettings& h, bool planar)
+    : exact_(h.form == "exact"),
+      planar_(planar),
+      omega_(h.omega0()),
+      gm_(kGravitationalConstant * h.saturn_mass),
+      r0_(h.orbit_radius) {
+  const double wz = h.vertical_frequency * omega_;
   extra_z2_ = exact_ ? wz * wz - omega_ * omega_ : wz * wz;
 }
 

@@ -42,6 +42,7 @@ class HillFrame : public Module {
   // default Lees-Edwards shear, Keplerian 1.5 Omega0.
   static ModuleKind kind();
   explicit HillFrame(const Config& cfg);
+  HillFrame(const HillSettings& h, bool planar);
   std::string name() const override { return "hill (" + std::string(exact_ ? "exact" : "linear") + ")"; }
   unsigned stages() const override { return kForce; }
   void force(Simulation& sim) override;

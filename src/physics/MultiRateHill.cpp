@@ -57,7 +57,7 @@ ModuleKind MultiRateHill::kind() {
 
 MultiRateHill::MultiRateHill(const Config& cfg, double dt)
     : dt_(dt), omega_(cfg.get<HillSettings>().omega0()),
-      omega_z_(cfg.get<HillSettings>().vertical_frequency * cfg.get<HillSettings>().omega0()),
+      omega_z_(cfg.get<HillSettings>().vertical_frequency * omega_),
       max_tidal_phase_(cfg.get<Settings>().max_tidal_phase),
       substeps_(std::max(1L, std::lround(cfg.get<Settings>().long_step / dt))),
       planar_(cfg.planar) {
