@@ -38,9 +38,6 @@ struct ParticleStore {
   std::vector<Vec3> wall_xi;          // rotation only: tangential spring per (particle, wall)
   std::vector<double> wall_impact;    // impacts only: impact normal speed per (particle, wall), 0: none
   std::vector<Vec3> wall_roll;        // rolling only: rolling-resistance torque spring per (particle, wall)
-  // The integrator's mode of the particle, carried through migration (multi-rate: on the
-  // free epicycle or on contact steps; see MultiRateHill). 0 for the plain integrator.
-  std::vector<std::uint8_t> mode;
   // Modified Lees-Edwards boundaries only: the copy of the box the particle lives in, 0 = LE1
   // (the main box, with the moonlet), 1 = LE2 (the moonlet-free feed). Particles of different
   // copies never touch; ghosts carry it.
@@ -99,7 +96,6 @@ struct ParticleStore {
     visit(p.v, 1, true);
     visit(p.x_build, 1, true);
     visit(p.f, 1, true);  // after a rebuild at the end of a step the next kick needs F(t)
-    visit(p.mode, 1, true);
     if (p.rotation) {
       visit(p.omega, 1, true);
       visit(p.torque, 1, true);

@@ -85,6 +85,10 @@ class Simulation {
   TargetList target_list() const {
     return all_targets ? TargetList{nullptr, particles.nlocal} : TargetList{targets.data(), targets.size()};
   }
+  // A module column (ParticleStore::declare) in which 0 marks a particle whose stored state is
+  // not the present one between a multi-rate integrator's long steps: force loops skip it as a
+  // partner (it is woken before it can touch anything). -1: none.
+  int lazy_column = -1;
   bool rebuilt_this_step = false;  // the neighbour list was rebuilt in the current step
   // Steps after which output is written (observables, dumps, snapshots) and the last step:
   // an integrator with long steps ends one there, so that output sees a synchronised state.

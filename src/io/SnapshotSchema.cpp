@@ -94,7 +94,8 @@ std::vector<GrainColumn> grain_columns(const ParticleStore& p) {
         throw std::logic_error("particle column '" + taken.name + "' would replace the snapshot's own");
     c.push_back({p.module_columns[k].name, GrainColumn::Real, w,
                  [k](const P& q, const Body&, std::size_t i, double* o) { std::copy_n(q.column(k, i), q.module_columns[k].width, o); },
-                 [k, w](P& q, std::size_t i, const double* in) { std::copy_n(in, w, q.column(k, i)); }});
+                 [k, w](P& q, std::size_t i, const double* in) { std::copy_n(in, w, q.column(k, i)); },
+                 true});  // a snapshot from before the column existed: zeros
   }
   return c;
 }

@@ -262,7 +262,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
       auto& b = out[r];
       const Vec3 xs = p.x[i] + shift(im);
       b.insert(b.end(), {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
-                         p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2], double(p.mode[i])});
+                         p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2]});
       if (p.rotation) b.insert(b.end(), p.omega[i].data(), p.omega[i].data() + 3);
       if (p.copies) b.push_back(im.copy);
       for (const auto& c : p.module_columns)
@@ -271,7 +271,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   std::vector<double> in;
   exchange(out, in);
   const int extra = p.ghost_column_width();  // the modules' columns, last
-  const std::size_t width = 11 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0) + extra;
+  const std::size_t width = 10 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0) + extra;
   const std::size_t n = in.size() / width;
   // Remember the receive sizes of the per-step update; one more Alltoall gives them.
   std::vector<int> scount(dom_.nranks);
@@ -279,7 +279,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   recv_ghosts_.assign(dom_.nranks, 0);
   MPI_Alltoall(scount.data(), 1, MPI_INT, recv_ghosts_.data(), 1, MPI_INT, dom_.comm);
   recv_doubles_.resize(dom_.nranks);
-  for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(7 + (p.rotation ? 3 : 0) + extra);
+  for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
   p.resize(p.nlocal + n);
   for (std::size_t g = 0; g < n; ++g) {
     const double* b = &in[g * width];
@@ -291,8 +291,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
     p.inv_mass[j] = 1.0 / b[3];
     p.x[j] = Vec3(b[4], b[5], b[6]);
     p.v[j] = Vec3(b[7], b[8], b[9]);
-    p.mode[j] = static_cast<std::uint8_t>(b[10]);
-    if (p.rotation) p.omega[j] = Vec3(b[11], b[12], b[13]);
+    if (p.rotation) p.omega[j] = Vec3(b[10], b[11], b[12]);
     if (p.copies) p.le_copy[j] = static_cast<std::uint8_t>(b[width - extra - 1]);
     const double* q = b + width - extra;
     for (auto& c : p.module_columns)
@@ -306,7 +305,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
 
 void HaloExchange::update_ghosts(ParticleStore& p) {
   const int extra = p.ghost_column_width();
-  const std::size_t width = 7 + (p.rotation ? 3 : 0) + extra;
+  const std::size_t width = 6 + (p.rotation ? 3 : 0) + extra;
   for (int r = 0; r < dom_.nranks; ++r) {
     auto& b = out_[r];
     b.resize(send_[r].size() * width);
@@ -316,8 +315,7 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
       const Vec3 xs = p.x[i] + shift(im);
       q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
       q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
-      q[6] = p.mode[i];
-      if (p.rotation) { q[7] = p.omega[i][0]; q[8] = p.omega[i][1]; q[9] = p.omega[i][2]; }
+      if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
       double* e = q + width - extra;
       for (const auto& c : p.module_columns)
         if (c.ghosts) e = std::copy_n(&c.data[i * c.width], c.width, e);
@@ -329,8 +327,7 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
   for (std::size_t j = p.nlocal; j < p.size(); ++j, b += width) {
     p.x[j] = Vec3(b[0], b[1], b[2]);
     p.v[j] = Vec3(b[3], b[4], b[5]);
-    p.mode[j] = static_cast<std::uint8_t>(b[6]);
-    if (p.rotation) p.omega[j] = Vec3(b[7], b[8], b[9]);
+    if (p.rotation) p.omega[j] = Vec3(b[6], b[7], b[8]);
     const double* e = b + width - extra;
     for (auto& c : p.module_columns)
       if (c.ghosts) {

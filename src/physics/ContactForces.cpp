@@ -71,7 +71,7 @@ void ContactForces::force(Simulation& sim) {
   const Simulation::TargetList targets = sim.target_list();
   // Between the multi-rate integrator's long steps, a free particle's stored state is that of
   // an earlier time: it is skipped (it is woken before it can touch anything).
-  const std::uint8_t* LAZY = sim.all_targets ? nullptr : p.mode.data();
+  const double* LAZY = sim.all_targets || sim.lazy_column < 0 ? nullptr : p.module_columns[sim.lazy_column].data.data();
   for (std::size_t t = 0; t < targets.count; ++t) {
     const std::size_t i = targets[t];
     if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up

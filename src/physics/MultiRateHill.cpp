@@ -52,7 +52,12 @@ ModuleKind MultiRateHill::kind() {
     s.max_tidal_phase = f.positive("time.max_tidal_phase", 0.1);
     c.set(s);
   };
-  return {"multirate", {"hill"}, read, [](Simulation& sim) { return std::make_unique<MultiRateHill>(sim.cfg, sim.dt); }};
+  auto make = [](Simulation& sim) {
+    auto m = std::make_unique<MultiRateHill>(sim.cfg, sim.dt);
+    m->mode_column_ = sim.particles.declare("multirate_mode", 1, true);  // ghosts' modes decide who is awake
+    return m;
+  };
+  return {"multirate", {"hill"}, read, make};
 }
 
 MultiRateHill::MultiRateHill(const Config& cfg, double dt)
@@ -77,7 +82,10 @@ std::string MultiRateHill::name() const {
   return os.str();
 }
 
-void MultiRateHill::setup(Simulation& sim) { moonlet_ = sim.find<Moonlet>(); }
+void MultiRateHill::setup(Simulation& sim) {
+  moonlet_ = sim.find<Moonlet>();
+  sim.lazy_column = static_cast<int>(mode_column_);  // kFree = 0: partners the force loops skip between long steps
+}
 
 Vec3 MultiRateHill::moonlet_acceleration(const ParticleStore& p, std::size_t i) const {
   return moonlet_ ? moonlet_->acceleration(p, i) : Vec3::Zero();
@@ -133,16 +141,16 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   // Ghosts as their owners are now (the last step's kicks and moves came after its update), so
   // that each side of a pair sees the same numbers whatever the rank count.
   sim.halo.update_ghosts(p);
-  for (std::size_t i = 0; i < p.nlocal; ++i) p.mode[i] = needs_contact_steps(sim, i) ? kContact : kFree;
+  for (std::size_t i = 0; i < p.nlocal; ++i) set_mode(p, i, needs_contact_steps(sim, i) ? kContact : kFree);
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.mode[i] == kFree) p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
+    if (mode_of(p, i) == kFree) p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
   in_long_step_ = true;
   // Fast free particles are moved every step (exact map, cheap), so that the drift bound of the
   // rest allows about a long step between rebuilds: epicycle speed above skin / (4 Delta).
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (p.mode[i] != kFree) continue;
+    if (mode_of(p, i) != kFree) continue;
     const double w = 2 * (p.v[i][0] - 1.5 * omega_ * p.x[i][1]);
-    if (std::sqrt(w * w + p.v[i][1] * p.v[i][1]) > skin_ / (4 * delta_)) p.mode[i] = kDrifting;
+    if (std::sqrt(w * w + p.v[i][1] * p.v[i][1]) > skin_ / (4 * delta_)) set_mode(p, i, kDrifting);
   }
   make_lists(p);
   watch_dirty_ = true;  // after this step's ghost update has carried the new modes
@@ -150,7 +158,7 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   const double stream0 = sim.stream - (sim.domain.shear.enabled ? sim.domain.shear.rate * dt_ : 0.0);
   free_drift_ = free_dy_ = free_speed_ = free_vz_ = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (p.mode[i] != kFree) continue;
+    if (mode_of(p, i) != kFree) continue;
     const Vec3& x = p.x[i];
     const Vec3& xb = p.x_build[i];
     const Vec3& v = p.v[i];
@@ -167,8 +175,8 @@ void MultiRateHill::make_lists(const ParticleStore& p) {
   contact_.clear();
   drifting_.clear();
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (on_contact_steps(p.mode[i])) contact_.push_back(static_cast<std::uint32_t>(i));
-    else if (p.mode[i] == kDrifting) drifting_.push_back(static_cast<std::uint32_t>(i));
+    if (on_contact_steps(mode_of(p, i))) contact_.push_back(static_cast<std::uint32_t>(i));
+    else if (mode_of(p, i) == kDrifting) drifting_.push_back(static_cast<std::uint32_t>(i));
   }
 }
 
@@ -179,7 +187,7 @@ void MultiRateHill::materialize(Simulation& sim) {
   if (tau <= 0) return;
   const Epicycle E(omega_, omega_z_, tau, planar_);
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.mode[i] == kFree) E.advance(p.x[i], p.v[i]);
+    if (mode_of(p, i) == kFree) E.advance(p.x[i], p.v[i]);
 }
 
 void MultiRateHill::pre_rebuild(Simulation& sim) {
@@ -194,8 +202,8 @@ void MultiRateHill::post_rebuild(Simulation& sim) {
   const double delta = delta_;
   delta_ = t0_ + delta - sim.time;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (!on_contact_steps(p.mode[i]) && needs_contact_steps(sim, i)) {
-      p.mode[i] = kWoken;  // its state is the exact present one, as a particle woken in pre_force
+    if (!on_contact_steps(mode_of(p, i)) && needs_contact_steps(sim, i)) {
+      set_mode(p, i, kWoken);  // its state is the exact present one, as a particle woken in pre_force
       ++wakes;
       rebuild_woke_ = true;
     }
@@ -212,15 +220,15 @@ void MultiRateHill::find_watched(const Simulation& sim) {
   // Two free particles cannot touch within the long step (see the header): only partners on
   // contact steps need watching.
   for (std::size_t j = 0; j < p.nlocal; ++j) {
-    if (on_contact_steps(p.mode[j])) continue;
+    if (on_contact_steps(mode_of(p, j))) continue;
     for (std::uint32_t k = nl.start[j]; k < nl.start[j + 1]; ++k)
-      if (on_contact_steps(p.mode[nl.partner[k]])) {
+      if (on_contact_steps(mode_of(p, nl.partner[k]))) {
         watch_.push_back(static_cast<std::uint32_t>(j));
         break;
       }
   }
   ghosts_awake_ = 0;
-  for (std::size_t g = p.nlocal; g < p.size(); ++g) ghosts_awake_ += on_contact_steps(p.mode[g]);
+  for (std::size_t g = p.nlocal; g < p.size(); ++g) ghosts_awake_ += on_contact_steps(mode_of(p, g));
   watch_dirty_ = false;
 }
 
@@ -282,7 +290,7 @@ void MultiRateHill::pre_force(Simulation& sim) {
   const bool last = sim.step_count == last_step_;
   if (!watch_dirty_) {  // a ghost joined the contact steps: its free partners here need watching
     std::size_t awake = 0;
-    for (std::size_t g = p.nlocal; g < p.size(); ++g) awake += on_contact_steps(p.mode[g]);
+    for (std::size_t g = p.nlocal; g < p.size(); ++g) awake += on_contact_steps(mode_of(p, g));
     watch_dirty_ = awake != ghosts_awake_;
   }
   if (watch_dirty_) find_watched(sim);
@@ -292,10 +300,10 @@ void MultiRateHill::pre_force(Simulation& sim) {
   const Epicycle now(omega_, omega_z_, tau, planar_);
   for (const std::uint32_t j : watch_) {
     Vec3 xj = p.x[j], vj = p.v[j];
-    if (p.mode[j] == kFree) now.advance(xj, vj);
+    if (mode_of(p, j) == kFree) now.advance(xj, vj);
     for (std::uint32_t k = nl.start[j]; k < nl.start[j + 1]; ++k) {
       const std::uint32_t i = nl.partner[k];
-      if (!on_contact_steps(p.mode[i])) continue;
+      if (!on_contact_steps(mode_of(p, i))) continue;
       const Vec3& xi = p.x[i];
       const Vec3& vi = p.v[i];
       const double gap = (xj - xi).norm() - (p.radius[i] + p.radius[j]);
@@ -306,8 +314,8 @@ void MultiRateHill::pre_force(Simulation& sim) {
     }
   }
   for (const std::uint32_t j : woken_) {
-    if (p.mode[j] == kFree) now.advance(p.x[j], p.v[j]);
-    p.mode[j] = kWoken;
+    if (mode_of(p, j) == kFree) now.advance(p.x[j], p.v[j]);
+    set_mode(p, j, kWoken);
   }
   wakes += static_cast<long>(woken_.size());
   if (last) materialize(sim);  // every particle gets forces at the long step's end
@@ -330,11 +338,11 @@ void MultiRateHill::final_integrate(Simulation& sim) {
   const double since = sim.time - t0_;
   for (const std::uint32_t i : contact_) {
     Vec3& v = p.v[i];
-    if (p.mode[i] == kWoken) {
+    if (mode_of(p, i) == kWoken) {
       // Its state is the free one at this time, full step. It had delta/2 of the moonlet's
       // impulse at the long step's start; it is owed `since` of it.
       v += (since - 0.5 * delta_) * moonlet_acceleration(p, i);
-      p.mode[i] = kContact;
+      set_mode(p, i, kContact);
       continue;
     }
     const double vx = c * v[0] + s * v[1], vy = c * v[1] - s * v[0];
@@ -346,7 +354,7 @@ void MultiRateHill::final_integrate(Simulation& sim) {
   }
   if (sim.step_count != last_step_) return;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (on_contact_steps(p.mode[i])) continue;
+    if (on_contact_steps(mode_of(p, i))) continue;
     p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
     if (moonlet_ && Moonlet::feels(p, i)) {
       const Vec3& x = p.x[i];

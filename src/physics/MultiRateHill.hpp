@@ -84,6 +84,13 @@ class MultiRateHill : public Module {
   // encounter), so moved every step by the exact map to keep the drift bound of the others tight.
   enum Mode : std::uint8_t { kFree = 0, kContact = 1, kWoken = 2, kDrifting = 3 };
   static bool on_contact_steps(std::uint8_t m) { return m == kContact || m == kWoken; }
+  // A particle's mode: a column this module declares (ParticleStore::declare), so it migrates,
+  // reaches the ghosts every step and goes into snapshots with no code elsewhere.
+  std::size_t mode_column_ = 0;
+  std::uint8_t mode_of(const ParticleStore& p, std::size_t i) const {
+    return static_cast<std::uint8_t>(p.column(mode_column_, i)[0]);
+  }
+  void set_mode(ParticleStore& p, std::size_t i, Mode m) const { p.column(mode_column_, i)[0] = m; }
   void begin_long_step(Simulation& sim);
   // Moves the free particles from t_ref to now (exact epicycle) and records, for the drift
   // bound, their displacement since the last build and their epicycle speeds.
