@@ -95,30 +95,31 @@ void Moonlet::force(Simulation& sim) {
   contacts_ = contacts;
 }
 
-void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
-  const ParticleStore& p = sim.particles;
+template <class Visit>
+void Moonlet::for_each_touching(const ParticleStore& p, Visit&& visit) const {
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (!feels(p, i)) continue;
     Vec3 r = p.x[i];
     if (dims_ == 2) r[2] = 0;
     const double d = r.norm();
     if (d >= radius_ + p.radius[i] || d == 0) continue;
-    const Vec3 f = wall_contact_force(law_, p, i, r / d, radius_ + p.radius[i] - d, slot_, radius_);
-    out.push_back({p.id[i], radius_ * r / d, p.x[i] - radius_ * r / d, f});
+    visit(i, Vec3(r / d), radius_ + p.radius[i] - d);
   }
 }
 
-double Moonlet::elastic_energy(const Simulation& sim) const {
+void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
   const ParticleStore& p = sim.particles;
+  for_each_touching(p, [&](std::size_t i, const Vec3& n, double delta) {
+    const Vec3 f = wall_contact_force(law_, p, i, n, delta, slot_, radius_);
+    out.push_back({p.id[i], radius_ * n, p.x[i] - radius_ * n, f});
+  });
+}
+
+double Moonlet::elastic_energy(const Simulation& sim) const {
   double e = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (!feels(p, i)) continue;
-    Vec3 r = p.x[i];
-    if (dims_ == 2) r[2] = 0;
-    const double d = r.norm();
-    if (d >= radius_ + p.radius[i] || d == 0) continue;
-    e += wall_contact_energy(law_, p, i, r / d, radius_ + p.radius[i] - d, slot_, radius_);
-  }
+  for_each_touching(sim.particles, [&](std::size_t i, const Vec3& n, double delta) {
+    e += wall_contact_energy(law_, sim.particles, i, n, delta, slot_, radius_);
+  });
   return e;
 }
 

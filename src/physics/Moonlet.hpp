@@ -54,6 +54,9 @@ class Moonlet : public Module {
     const double d = std::max(std::sqrt(d2), R);
     return -gm / (d * d * d);
   }
+  // Calls visit(i, n, delta) for every owned particle touching the surface now (reports).
+  template <class Visit>
+  void for_each_touching(const ParticleStore& p, Visit&& visit) const;
   LinearSpringDashpot law_;
   PendingShifts shifts_;
   double gm_, radius_;
