@@ -43,7 +43,10 @@ double Lubrication::relaxation(double r, double ai, double aj, double mi, double
 Vec3 Lubrication::pair_force(const Vec3& d, const Vec3& dv, double ai, double aj, double mi, double mj,
                              double scale) const {
   const double r = d.norm();
-  const double c = relaxation(r, ai, aj, mi, mj);
+  return film_force(d, r, relaxation(r, ai, aj, mi, mj), dv, mi, mj, scale);
+}
+
+Vec3 Lubrication::film_force(const Vec3& d, double r, double c, const Vec3& dv, double mi, double mj, double scale) const {
   if (c == 0) return Vec3::Zero();
   const Vec3 n = d / r;
   const double m_star = mi * mj / (mi + mj);
@@ -69,9 +72,9 @@ void Lubrication::force(Simulation& sim) {
       const std::uint32_t j = nl.partner[k];
       const Vec3 d = p.x[i] - p.x[j];
       const double mj = p.mass[j];
-      const double c = relaxation(d.norm(), p.radius[i], p.radius[j], mi, mj);
+      const double r = d.norm(), c = relaxation(r, p.radius[i], p.radius[j], mi, mj);
       if (c == 0) continue;
-      sum += pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], mi, mj, scale(p, i, j));
+      sum += film_force(d, r, c, p.v[i] - p.v[j], mi, mj, scale(p, i, j));  // the film evaluated once
       load += c * (mi * mj / (mi + mj)) * (1 / mi + 1 / std::sqrt(mi * mj));
       ++active;
     }

@@ -62,6 +62,8 @@ class Lubrication : public Module {
   std::size_t load_ = 0;      // the particle column of D_i (ParticleStore::declare)
   std::vector<double> next_;  // this step's D_i of the owned particles, stored at the end
   double scale(const ParticleStore& p, std::size_t i, std::size_t j) const;
+  // The force on i of a film with relaxation c at centre distance r = |d|.
+  Vec3 film_force(const Vec3& d, double r, double c, const Vec3& dv, double mi, double mj, double scale) const;
 };
 
 }  // namespace cassini
