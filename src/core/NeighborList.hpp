@@ -22,6 +22,40 @@ class NeighborList {
   static std::vector<std::size_t> spatial_order(const ParticleStore& p, const Decomposition& dom, double range);
 
   std::size_t size() const { return partner.size(); }
+
+  // The pair iteration, written once for every loop off the force kernel's hot path (reports,
+  // lubrication, diagnostics): f(i, j, k) for owned particle i, partner j (owned or ghost) and
+  // list entry k, in list order.
+  template <class F>
+  void for_each_pair(std::size_t nlocal, F&& f) const {
+    for (std::size_t i = 0; i < nlocal; ++i)
+      for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) f(i, partner[k], k);
+  }
+  // Every pair once on any number of ranks: from the side with the lower id.
+  template <class F>
+  void for_each_pair_once(const ParticleStore& p, F&& f) const {
+    for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+      if (p.id[i] < p.id[j]) f(i, j, k);
+    });
+  }
+  // A listed pair whose spheres overlap, as contact reports need it.
+  struct Overlap {
+    std::size_t i;
+    std::uint32_t j, k;  // partner, list entry
+    Vec3 d, n;           // x_i - x_j and its direction (from j to i)
+    double r, delta;     // distance, overlap a_i + a_j - r > 0
+  };
+  // f(Overlap) for every overlapping entry (once = true: every overlapping pair once).
+  template <class F>
+  void for_each_overlap(const ParticleStore& p, bool once, F&& f) const {
+    for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+      if (once && p.id[i] >= p.id[j]) return;
+      const Vec3 d = p.x[i] - p.x[j];
+      const double R = p.radius[i] + p.radius[j], r = d.norm();
+      if (r >= R) return;
+      f(Overlap{i, j, k, d, d / r, r, R - r});
+    });
+  }
   long long candidates = 0;  // pairs distance-tested at the last build (the search's cost)
 
  private:

@@ -158,17 +158,10 @@ bool Simulation::remove_stillborn() {
   ParticleStore& p = particles;
   std::vector<std::size_t> doomed;
   if (halo.born_first < halo.next_id)  // clones were made at this rebuild's migration
-    for (std::size_t i = 0; i < p.nlocal; ++i) {
-      if (p.id[i] < halo.born_first || p.id[i] >= halo.next_id) continue;
-      for (std::uint32_t k = neighbors.start[i]; k < neighbors.start[i + 1]; ++k) {
-        const std::uint32_t j = neighbors.partner[k];
-        const double R = p.radius[i] + p.radius[j];
-        if ((p.x[i] - p.x[j]).squaredNorm() < R * R) {
-          doomed.push_back(i);
-          break;
-        }
-      }
-    }
+    neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
+      const bool clone = p.id[c.i] >= halo.born_first && p.id[c.i] < halo.next_id;
+      if (clone && (doomed.empty() || doomed.back() != c.i)) doomed.push_back(c.i);
+    });
   int mine = doomed.empty() ? 0 : 1, any = 0;
   MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, domain.comm);
   if (!any) return false;

@@ -8,9 +8,16 @@
 namespace cassini {
 
 void ContactForces::force(Simulation& sim) {
+  law_.with_parts([&](const auto& parts) { evaluate(sim, parts); });
+}
+
+// The pair loop, compiled once per combination of the law's parts (LawParts): a scene pays
+// only for the parts it uses.
+template <class Parts>
+void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
-  const bool fric = law_.friction();
+  constexpr bool fric = Parts::friction;
   if (fric && xi_.size() != nl.size()) xi_.assign(nl.size(), Vec3::Zero());
   long contacts = 0;
   double worst = 0;
@@ -40,13 +47,13 @@ void ContactForces::force(Simulation& sim) {
   MirrorResult* OUT = mirrored_.data();
   Vec3* FORCE = p.f.data();
   Vec3* TORQUE = fric ? p.torque.data() : nullptr;
-  const bool exact = law_.exact();
+  constexpr bool exact = Parts::exact;
   const double dt = law_.dt();
   // Bridges restitution: each contact's law follows from its impact speed, kept per entry.
-  const bool vdep = law_.velocity_dependent();
-  const bool hertz = law_.hertz();
+  constexpr bool vdep = Parts::bridges;
+  constexpr bool hertz = Parts::hertz;
   // Rolling and twisting resistance: a torque spring per entry, history like xi_ (friction is on).
-  const bool rolls = law_.rolling();
+  constexpr bool rolls = Parts::rolling;
   if (rolls && roll_.size() != nl.size()) roll_.assign(nl.size(), Vec3::Zero());
   Vec3* XR = rolls ? roll_.data() : nullptr;
   if (vdep && impact_.size() != nl.size()) impact_.assign(nl.size(), 0.0);
@@ -124,7 +131,7 @@ void ContactForces::force(Simulation& sim) {
             const double mj = M[j];
             const double m = mi * mj / (mi + mj);
             const double vn = (vi - V[j]).dot(n);
-            const NormalStep ns = law_.normal(law_of(si, S[j], k), m, R - r, vn);
+            const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, 0.0);
             if (ns.fn != 0 || ns.shift != 0) {
               const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
               fsum += f;
@@ -132,7 +139,7 @@ void ContactForces::force(Simulation& sim) {
               if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
             }
             if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
-              const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(law_of(S[j], si, mk), m, R - r, vn) : ns;
+              const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
               if (nj.fn != 0 || nj.shift != 0) {
                 T[mk] = kParted;
                 MirrorResult& out = OUT[MIRROR[mk]];
@@ -183,7 +190,7 @@ void ContactForces::force(Simulation& sim) {
       // = 1.4 m a^2 per solid sphere; ghosts carry no inverse inertia).
       Rolling rl;
       if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), XR[k]};
-      const Vec3 f = law_.force(L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
+      const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
       if (rolls) XR[k] = rl.spring;
       fsum += f;
       if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
@@ -225,7 +232,7 @@ void ContactForces::force(Simulation& sim) {
             const PairLaw Lj = own_law ? law_of(S[j], si, mk) : L;
             Rolling rj;
             if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
-            out.f = law_.force(Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
+            out.f = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
                                rolls ? &rj : nullptr);
             if (rolls) {
               XR[mk] = rj.spring;
@@ -252,20 +259,16 @@ void ContactForces::final_integrate(Simulation& sim) { shifts_.apply(sim.particl
 
 double ContactForces::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
-  const NeighborList& nl = sim.neighbors;
   double e = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const double R = p.radius[i] + p.radius[j], r = (p.x[i] - p.x[j]).norm();
-      if (r >= R) continue;
-      const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
-      const Vec3 n = (p.x[i] - p.x[j]) / r;
-      const bool springs = law_.friction() && k < xi_.size();
-      e += 0.5 * law_.spring_energy(entry_law(p.species[i], p.species[j], k), m, R - r, p.radius[i] * p.radius[j] / R, n,
-                                    springs ? &xi_[k] : nullptr,
-                                    springs && law_.rolling() && k < roll_.size() ? &roll_[k] : nullptr);  // half per side
-    }
+  sim.neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
+    const std::size_t i = c.i, j = c.j, k = c.k;
+    const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+    const bool springs = law_.friction() && k < xi_.size();
+    e += 0.5 * law_.spring_energy(entry_law(p.species[i], p.species[j], k), m, c.delta,
+                                  p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]), c.n,
+                                  springs ? &xi_[k] : nullptr,
+                                  springs && law_.rolling() && k < roll_.size() ? &roll_[k] : nullptr);  // half per side
+  });
   return e;
 }
 
@@ -277,12 +280,11 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
   const bool fric = law_.friction() && xi_.size() == nl.size();
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
   const bool rolls = law_.rolling() && roll_.size() == nl.size();
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
-      const double u = vdep ? impact_[k] : 0.0;
-      if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[i], p.id[nl.partner[k]], xi, u, roll});
-    }
+  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+    const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
+    const double u = vdep ? impact_[k] : 0.0;
+    if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[i], p.id[j], xi, u, roll});
+  });
 }
 
 PairLaw ContactForces::entry_law(int a, int b, std::uint32_t k) const {
@@ -292,25 +294,18 @@ PairLaw ContactForces::entry_law(int a, int b, std::uint32_t k) const {
 
 void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
   const ParticleStore& p = sim.particles;
-  const NeighborList& nl = sim.neighbors;
   const bool fric = law_.friction();
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      if (p.id[i] >= p.id[j]) continue;
-      const Vec3 d = p.x[i] - p.x[j];
-      const double r = d.norm(), R = p.radius[i] + p.radius[j];
-      if (r >= R) continue;
-      const Vec3 n = d / r;
-      const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
-      Vec3 vrel = p.v[i] - p.v[j];
-      if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(n);  // id[i] < id[j], as in force()
-      Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
-      // The step already advanced the spring: report it as it stands (no second increment).
-      const Vec3 f = law_.force(entry_law(p.species[i], p.species[j], k), m, R - r, n, vrel, fric ? &spring : nullptr, ft,
-                                false, nullptr, p.radius[i] * p.radius[j] / R);
-      out.push_back({p.id[i], p.id[j], p.x[i], d, f});
-    }
+  sim.neighbors.for_each_overlap(p, true, [&](const NeighborList::Overlap& c) {
+    const std::size_t i = c.i, j = c.j, k = c.k;
+    const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+    Vec3 vrel = p.v[i] - p.v[j];
+    if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(c.n);  // id[i] < id[j], as in force()
+    Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
+    // The step already advanced the spring: report it as it stands (no second increment).
+    const Vec3 f = law_.force(entry_law(p.species[i], p.species[j], k), m, c.delta, c.n, vrel, fric ? &spring : nullptr,
+                              ft, false, nullptr, p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]));
+    out.push_back({p.id[i], p.id[j], p.x[i], c.d, f});
+  });
 }
 
 ModuleKind ContactForces::kind() {
@@ -323,37 +318,30 @@ void ContactForces::setup(Simulation& sim) {
 
 void ContactForces::refresh_diagnostics(const Simulation& sim) {
   const ParticleStore& p = sim.particles;
-  const NeighborList& nl = sim.neighbors;
   contacts_ = 0;
   max_overlap_ = overlap_sum_ = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const double R = p.radius[i] + p.radius[j], r = (p.x[i] - p.x[j]).norm();
-      if (r >= R) continue;
-      ++contacts_;
-      const double frac = (R - r) / std::min(p.radius[i], p.radius[j]);
-      overlap_sum_ += frac;
-      if (frac > max_overlap_) { max_overlap_ = frac; worst_id_ = p.id[i]; }
-    }
+  sim.neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
+    ++contacts_;
+    const double frac = c.delta / std::min(p.radius[c.i], p.radius[c.j]);
+    overlap_sum_ += frac;
+    if (frac > max_overlap_) { max_overlap_ = frac; worst_id_ = p.id[c.i]; }
+  });
 }
 
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   mirror_.assign(nl.size(), kNoMirror);
   std::uint32_t pairs = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      if (j <= i || j >= p.nlocal) continue;
-      for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
-        if (nl.partner[q] == i) {
-          mirror_[k] = q;        // the evaluating entry: the partner's entry
-          mirror_[q] = pairs++;  // the receiving entry: its pair's slot in mirrored_
-          break;
-        }
-      if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");
-    }
+  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+    if (j <= i || j >= p.nlocal) return;
+    for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
+      if (nl.partner[q] == i) {
+        mirror_[k] = q;        // the evaluating entry: the partner's entry
+        mirror_[q] = pairs++;  // the receiving entry: its pair's slot in mirrored_
+        break;
+      }
+    if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");
+  });
   mirrored_.resize(pairs);  // one result per owned pair, not per list entry: half the memory
 }
 
@@ -369,22 +357,20 @@ void ContactForces::post_rebuild(Simulation& sim) {
   build_mirrors(p, nl);
   // Pairs already touching across a rebuild are not new collisions.
   touching_.assign(nl.size(), 0);
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const double R = p.radius[i] + p.radius[j];
-      const Vec3 d = p.x[i] - p.x[j];
-      // The exact scheme needs to know which pairs touched a step ago (to correct their exit,
-      // and so that a contact that began in this step is still counted as a collision): from
-      // the state, delta + v_n dt > 0. Rebuilds happen at the same steps on any number of ranks
-      // and at every snapshot, so this keeps runs rank-independent and restart-exact.
-      if (law_.exact()) {
-        const double r = d.norm();
-        touching_[k] = R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0;
-      } else {
-        touching_[k] = d.squaredNorm() < R * R;
-      }
+  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+    const double R = p.radius[i] + p.radius[j];
+    const Vec3 d = p.x[i] - p.x[j];
+    // The exact scheme needs to know which pairs touched a step ago (to correct their exit,
+    // and so that a contact that began in this step is still counted as a collision): from
+    // the state, delta + v_n dt > 0. Rebuilds happen at the same steps on any number of ranks
+    // and at every snapshot, so this keeps runs rank-independent and restart-exact.
+    if (law_.exact()) {
+      const double r = d.norm();
+      touching_[k] = R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0;
+    } else {
+      touching_[k] = d.squaredNorm() < R * R;
     }
+  });
   if (!keeps_history()) return;
   auto& stash = sim.history;
   if (law_.friction()) xi_.assign(nl.size(), Vec3::Zero());
@@ -394,17 +380,16 @@ void ContactForces::post_rebuild(Simulation& sim) {
     return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
   };
   std::sort(stash.begin(), stash.end(), before);
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      if (!touching_[k]) continue;  // separated during the drift: the spring is gone
-      const HistoryEntry key{p.id[i], p.id[nl.partner[k]], {}};
-      auto it = std::lower_bound(stash.begin(), stash.end(), key, before);
-      if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) {
-        if (law_.friction()) xi_[k] = it->xi;
-        if (law_.velocity_dependent()) impact_[k] = it->impact;
-        if (law_.rolling()) roll_[k] = it->roll;
-      }
+  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+    if (!touching_[k]) return;  // separated during the drift: the spring is gone
+    const HistoryEntry key{p.id[i], p.id[j], {}};
+    auto it = std::lower_bound(stash.begin(), stash.end(), key, before);
+    if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) {
+      if (law_.friction()) xi_[k] = it->xi;
+      if (law_.velocity_dependent()) impact_[k] = it->impact;
+      if (law_.rolling()) roll_[k] = it->roll;
     }
+  });
   stash.clear();
 }
 

@@ -46,6 +46,7 @@
 // both sides, with the same trajectory on any number of ranks.
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -131,6 +132,24 @@ class PendingShifts {
   std::vector<std::pair<std::size_t, Vec3>> moves_;
 };
 
+// Which parts of the law a scene uses: the normal model (linear under the exact scheme, linear
+// under Verlet, Hertz), friction, rolling resistance, Bridges restitution. The law below is
+// written once against a Parts type: with LawParts<...> every choice is a compile-time constant
+// and the branches of the parts a scene lacks vanish (the pair loop is compiled once per valid
+// combination, LinearSpringDashpot::with_parts); RuntimeParts carries the same choices as
+// values, for callers off the hot path (walls, reports). The two give identical results.
+template <bool Exact, bool Hertz, bool Friction, bool Rolling, bool Bridges>
+struct LawParts {
+  static constexpr bool exact = Exact && !Hertz;  // Hertz pairs use velocity Verlet under either scheme
+  static constexpr bool hertz = Hertz, friction = Friction, rolling = Rolling, bridges = Bridges;
+  // The combinations ReadConfig admits: rolling needs friction, Bridges is a linear law's.
+  static constexpr bool valid = (!Rolling || Friction) && !(Hertz && (Bridges || Exact));
+  bool clip;
+};
+struct RuntimeParts {
+  bool exact, hertz, friction, rolling, bridges, clip;
+};
+
 class LinearSpringDashpot {
  public:
   // The per-pair constants are computed out of line (LinearSpringDashpot.cpp, without fused
@@ -158,25 +177,38 @@ class LinearSpringDashpot {
   const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
   bool friction() const { return friction_; }
   bool exact() const { return exact_; }
+  RuntimeParts parts() const { return {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_, clip_}; }
+  // Calls f(LawParts<...>{}) with this scene's parts as compile-time constants: the one place
+  // that lists the combinations a loop is compiled for.
+  template <class F>
+  void with_parts(F&& f) const {
+    const bool flags[5] = {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_};
+    pick<0>(f, flags);
+  }
   double dt() const { return dt_; }
 
   // The normal law for overlap delta (may be <= 0: a pair that parted this step) and normal
   // velocity vn = vrel . n (< 0 approaching) of the last half step; m: reduced mass; reff:
   // reduced radius (Hertz pairs only).
   NormalStep normal(const PairLaw& L, double m, double delta, double vn, double reff = 0) const {
+    return normal(parts(), L, m, delta, vn, reff);
+  }
+  template <class Parts>
+  [[gnu::always_inline]] NormalStep normal(const Parts& parts, const PairLaw& L, double m, double delta, double vn,
+                                           double reff) const {
     NormalStep r;
-    if (L.e_star > 0) {  // Hertz: velocity Verlet under either scheme
+    if (parts.hertz) {  // Hertz: velocity Verlet under either scheme
       if (delta <= 0) return r;
       const double K = (4.0 / 3.0) * L.e_star * std::sqrt(reff * delta);  // f = K delta
       r.fn = K * delta - L.c_hertz * std::sqrt(K * m) * vn;
-      if (clip_ && r.fn < 0) r.fn = 0;
+      if (parts.clip && r.fn < 0) r.fn = 0;
       r.contact_time = dt_;
       return r;
     }
-    if (!exact_) {
+    if (!parts.exact) {
       if (delta <= 0) return r;
       r.fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
-      if (clip_ && r.fn < 0) r.fn = 0;
+      if (parts.clip && r.fn < 0) r.fn = 0;
       r.contact_time = dt_;
       return r;
     }
@@ -218,15 +250,20 @@ class LinearSpringDashpot {
   // reff: the reduced radius (Hertz pairs; rolling resistance).
   // roll (with friction, for pairs that resist rolling): in the relative spin and the torque
   // spring, out the rolling and twisting torque on i (see rolling()).
-  [[gnu::always_inline]] Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi,
-                                     Vec3& ft, bool advance = true, double* shift = nullptr, double reff = 0,
-                                     Rolling* roll = nullptr) const {
+  Vec3 force(const PairLaw& L, double m, double delta, const Vec3& n, const Vec3& vrel, Vec3* xi, Vec3& ft,
+             bool advance = true, double* shift = nullptr, double reff = 0, Rolling* roll = nullptr) const {
+    return force(parts(), L, m, delta, n, vrel, xi, ft, advance, shift, reff, roll);
+  }
+  template <class Parts>
+  [[gnu::always_inline]] Vec3 force(const Parts& parts, const PairLaw& L, double m, double delta, const Vec3& n,
+                                     const Vec3& vrel, Vec3* xi, Vec3& ft, bool advance, double* shift, double reff,
+                                     Rolling* roll) const {
     const double vn = vrel.dot(n);
-    const NormalStep ns = normal(L, m, delta, vn, reff);
+    const NormalStep ns = normal(parts, L, m, delta, vn, reff);
     if (shift) *shift = ns.shift;
     const double fn = ns.fn;
     Vec3 f = fn * n;
-    if (!xi || delta <= 0) {  // no friction, or the spheres parted: no tangential force
+    if (!parts.friction || !xi || delta <= 0) {  // no friction, or the spheres parted: no tangential force
       ft.setZero();
       return f;
     }
@@ -242,7 +279,7 @@ class LinearSpringDashpot {
     }
     if (advance) s += vt * ns.contact_time;
     double kt = L.kt_ratio * m * L.k_per_mass, gt = L.gammat_ratio * m * L.gamma_per_mass;
-    if (L.e_star > 0) {  // Mindlin: k_t = 8 G* sqrt(R* delta), g_t = 2 sqrt(5/6) beta sqrt(k_t m), beta = c / sqrt(5)
+    if (parts.hertz) {  // Mindlin: k_t = 8 G* sqrt(R* delta), g_t = 2 sqrt(5/6) beta sqrt(k_t m), beta = c / sqrt(5)
       kt = 8 * L.g_star * std::sqrt(reff * delta);
       gt = 2 / std::sqrt(6.0) * L.c_hertz * std::sqrt(kt * m);
     }
@@ -256,8 +293,8 @@ class LinearSpringDashpot {
       s = -(slide / kt) * dir;
     }
     *xi = s;
-    if (roll) {
-      const double kn = L.e_star > 0 ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;  // d f_n / d delta
+    if (parts.rolling && roll) {
+      const double kn = parts.hertz ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;  // d f_n / d delta
       roll->torque = rolling(L, kn, std::max(fn, 0.0), reff, n, advance ? ns.contact_time : 0.0, *roll);
     }
     return f + ft;
@@ -377,6 +414,19 @@ class LinearSpringDashpot {
   }
 
  private:
+  template <int N, class F, bool... Chosen>
+  void pick(F& f, const bool* flags) const {
+    if constexpr (N == 5) {
+      using P = LawParts<Chosen...>;
+      if constexpr (P::valid) f(P{clip_});
+      else throw std::logic_error("contact law: an invalid combination of parts");
+    } else if (flags[N]) {
+      pick<N + 1, F, Chosen..., true>(f, flags);
+    } else {
+      pick<N + 1, F, Chosen..., false>(f, flags);
+    }
+  }
+
   int n_;
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;

@@ -61,41 +61,32 @@ double Lubrication::scale(const ParticleStore& p, std::size_t i, std::size_t j) 
 
 void Lubrication::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
-  const NeighborList& nl = sim.neighbors;
   long active = 0;
   next_.assign(p.nlocal, 0.0);
+  film_.assign(p.nlocal, Vec3::Zero());  // each bead's films summed in list order, then added to its force
+  sim.neighbors.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t) {
+    const Vec3 d = p.x[i] - p.x[j];
+    const double mi = p.mass[i], mj = p.mass[j];
+    const double r = d.norm(), c = relaxation(r, p.radius[i], p.radius[j], mi, mj);
+    if (c == 0) return;
+    film_[i] += film_force(d, r, c, p.v[i] - p.v[j], mi, mj, scale(p, i, j));  // the film evaluated once
+    next_[i] += c * (mi * mj / (mi + mj)) * (1 / mi + 1 / std::sqrt(mi * mj));
+    ++active;
+  });
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    Vec3 sum = Vec3::Zero();
-    double load = 0;
-    const double mi = p.mass[i];
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      const Vec3 d = p.x[i] - p.x[j];
-      const double mj = p.mass[j];
-      const double r = d.norm(), c = relaxation(r, p.radius[i], p.radius[j], mi, mj);
-      if (c == 0) continue;
-      sum += film_force(d, r, c, p.v[i] - p.v[j], mi, mj, scale(p, i, j));  // the film evaluated once
-      load += c * (mi * mj / (mi + mj)) * (1 / mi + 1 / std::sqrt(mi * mj));
-      ++active;
-    }
-    p.f[i] += sum;
-    next_[i] = load;
+    p.f[i] += film_[i];
+    p.column(load_, i)[0] = next_[i];  // read by the next step
   }
-  for (std::size_t i = 0; i < p.nlocal; ++i) p.column(load_, i)[0] = next_[i];  // read by the next step
   active_ = active;
 }
 
 void Lubrication::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
   const ParticleStore& p = sim.particles;
-  const NeighborList& nl = sim.neighbors;
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      const std::uint32_t j = nl.partner[k];
-      if (p.id[i] >= p.id[j]) continue;
-      const Vec3 d = p.x[i] - p.x[j];
-      const Vec3 f = pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j], scale(p, i, j));
-      if (!f.isZero(0)) out.push_back({p.id[i], p.id[j], p.x[i], d, f});
-    }
+  sim.neighbors.for_each_pair_once(p, [&](std::size_t i, std::uint32_t j, std::uint32_t) {
+    const Vec3 d = p.x[i] - p.x[j];
+    const Vec3 f = pair_force(d, p.v[i] - p.v[j], p.radius[i], p.radius[j], p.mass[i], p.mass[j], scale(p, i, j));
+    if (!f.isZero(0)) out.push_back({p.id[i], p.id[j], p.x[i], d, f});
+  });
 }
 
 void Lubrication::observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) {

@@ -61,6 +61,7 @@ class Lubrication : public Module {
   long active_ = 0;
   std::size_t load_ = 0;      // the particle column of D_i (ParticleStore::declare)
   std::vector<double> next_;  // this step's D_i of the owned particles, stored at the end
+  std::vector<Vec3> film_;    // this step's film force on each owned particle
   double scale(const ParticleStore& p, std::size_t i, std::size_t j) const;
   // The force on i of a film with relaxation c at centre distance r = |d|.
   Vec3 film_force(const Vec3& d, double r, double c, const Vec3& dv, double mi, double mj, double scale) const;
