@@ -1,10 +1,12 @@
 // Contact law against analytic results (spec section 1).
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
+#include "physics/LinearSpringDashpot.hpp"
 
 using namespace cassini;
 using namespace cassini::test;
@@ -842,4 +844,65 @@ end = 1.0
     }
   }
   EXPECT_TRUE(parted);
+}
+
+TEST(ContactLaw, CompiledLawPartsGiveTheRuntimeLawBitwise) {
+  // Particle pairs evaluate the law with its parts as compile-time constants (the pair loop is
+  // compiled per combination, LinearSpringDashpot::with_parts); walls and reports evaluate the
+  // same text with run-time parts. Both must be one law: every output equal, bit for bit, over
+  // overlaps from parted to deep (onset and exit steps of the exact scheme included), sliding
+  // and sticking springs, rolling and twisting springs, for each normal model.
+  const std::string linear = kPair;
+  const std::vector<std::pair<std::string, std::vector<std::string>>> scenes = {
+      {linear, {}},
+      {linear, {"species.0.mu_s=0.5", "species.0.mu_d=0.4"}},
+      {linear, {"species.0.mu_s=0.5", "species.0.mu_d=0.4", "species.0.mu_r=0.1", "species.0.mu_o=0.05"}},
+      {linear, {"species.0.mu_s=0.5", "species.0.mu_d=0.4", "contact.scheme=\"verlet\""}},
+      {linear, {"contact.scheme=\"verlet\"", "contact.clip_normal=true"}},
+      {with_bridges(linear, 0.01), {"species.0.mu_s=0.5", "species.0.mu_d=0.4"}},
+      {kHertzPair, {"species.0.mu_s=0.5", "species.0.mu_d=0.4", "species.0.mu_r=0.1"}},
+  };
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto random_vec = [&](double scale) -> Vec3 { return Vec3(u(rng), u(rng), u(rng)) * scale; };
+  int compared = 0, shifted = 0, rolled = 0, slid = 0;
+  for (const auto& [text, overrides] : scenes) {
+    auto sim = make_sim(text, overrides);
+    const LinearSpringDashpot law(sim->cfg, sim->dt);
+    const double a = 0.001, m = 0.5 * 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, reff = 0.5 * a;
+    for (int trial = 0; trial < 2000; ++trial) {
+      const Vec3 n = random_vec(1).normalized();
+      // From parted (2 % of a) to 8 % deep, and every third within a step's travel of touching
+      // (the exact scheme's onset and exit steps).
+      const double delta = trial % 3 ? a * (0.06 * u(rng) + 0.02) : 0.2 * sim->dt * u(rng);
+      const Vec3 vrel = random_vec(0.1) + n * (0.05 * u(rng));  // approaching and receding
+      const Vec3 xi0 = random_vec(trial % 2 ? 1e-6 : 1e-4);     // sticking and sliding springs
+      const PairLaw L = law.velocity_dependent() ? law.at_impact(0, 0, 0.2 * std::abs(u(rng))) : law.law(0, 0);
+      Rolling r0{random_vec(50), 1e-12, random_vec(1e-9)};
+      Vec3 xi1 = xi0, ft1, xi2 = xi0, ft2;
+      Rolling r1 = r0, r2 = r0;
+      double s1 = 0, s2 = 0;
+      const bool fric = law.friction(), rolls = law.rolling();
+      const Vec3 f1 = law.force(L, m, delta, n, vrel, fric ? &xi1 : nullptr, ft1, true, &s1, reff, rolls ? &r1 : nullptr);
+      Vec3 f2;
+      law.with_parts([&](const auto& parts) {
+        f2 = law.force(parts, L, m, delta, n, vrel, fric ? &xi2 : nullptr, ft2, true, &s2, reff, rolls ? &r2 : nullptr);
+      });
+      ASSERT_TRUE(f1 == f2 && ft1 == ft2 && xi1 == xi2 && s1 == s2 && r1.torque == r2.torque && r1.spring == r2.spring)
+          << "scene " << compared / 2000 << ", trial " << trial << ": force " << f1[0] << " vs " << f2[0] << ", torque "
+          << r1.torque[0] << " vs " << r2.torque[0];
+      ++compared;
+      shifted += s1 != 0;
+      rolled += !r1.torque.isZero(0);
+      slid += fric && delta > 0 && xi1.norm() < 0.999 * xi0.norm();  // the Coulomb cap shortened the spring
+
+    }
+  }
+  EXPECT_EQ(compared, 2000 * int(scenes.size()));
+  // The draws reach the exact scheme's onset and exit steps, sliding, and rolling torques.
+  EXPECT_GT(shifted, 100);
+  EXPECT_GT(slid, 100);
+  EXPECT_GT(rolled, 100);
+  std::printf("compared %d evaluations: %d onset or exit steps, %d sliding, %d rolling torques\n", compared, shifted,
+              slid, rolled);
 }
