@@ -1,5 +1,6 @@
 #include "core/ParticleStore.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <type_traits>
@@ -76,19 +77,30 @@ void ParticleStore::copy(std::size_t from, std::size_t to) {
 }
 
 void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
-  // Into a scratch array kept per element type, then swapped: no allocation after the first
-  // rebuilds. A fresh array per column (as before) cost a page fault per 4 KiB at every rebuild,
-  // and the ghosts appended next had to reallocate every column again.
+  // In place, cycle by cycle (new slot k takes old slot order[k]): no second copy of any column.
+  // Each column keeps its buffer and the room it had for ghosts, so nothing is reallocated and
+  // the peak memory of a rebuild is not raised by a reordering.
+  const std::size_t n = order.size();
+  std::vector<bool> seen(n, false);
+  std::vector<std::size_t> leaders;  // one slot of every cycle longer than one
+  for (std::size_t k = 0; k < n; ++k) {
+    if (seen[k] || order[k] == k) continue;
+    leaders.push_back(k);
+    for (std::size_t j = k; !seen[j]; j = order[j]) seen[j] = true;
+  }
   for_each_column([&](auto& vec, int width, bool) {
     using T = typename std::decay_t<decltype(vec)>::value_type;
-    static thread_local std::vector<T> out;
-    out.resize(order.size() * width);
-    for (std::size_t k = 0; k < order.size(); ++k)
-      for (int w = 0; w < width; ++w) out[k * width + w] = vec[order[k] * width + w];
-    vec.swap(out);
-    if (vec.capacity() < out.capacity()) vec.reserve(out.capacity());  // room for the ghosts
+    vec.resize(n * width);  // ghosts dropped
+    std::vector<T> held(width);
+    for (const std::size_t k : leaders) {
+      std::copy_n(vec.begin() + k * width, width, held.begin());
+      std::size_t j = k;
+      for (std::size_t from = order[j]; from != k; j = from, from = order[j])
+        std::copy_n(vec.begin() + from * width, width, vec.begin() + j * width);
+      std::copy_n(held.begin(), width, vec.begin() + j * width);
+    }
   });
-  nlocal = order.size();
+  nlocal = n;
 }
 
 std::size_t ParticleStore::declare(const std::string& name, int width, bool ghosts) {

@@ -43,8 +43,25 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   // (see LinearSpringDashpot), so this is bitwise the same as evaluating both sides (springs
   // that are not exact negatives, see mirror_spring below, are evaluated on both sides).
   if (mirror_.size() != nl.size()) build_mirrors(p, nl);
-  const std::uint32_t* MIRROR = mirror_.data();
+  std::uint32_t* MIRROR = mirror_.data();
   MirrorResult* OUT = mirrored_.data();
+  Vec3* OUT_TORQUE = fric ? mirrored_torque_.data() : nullptr;
+  // Result slots are handed out afresh every step, one per pair that has a result (touching, or
+  // at the exact scheme's exit step), in evaluation order: memory for the pairs in contact, not
+  // for every listed pair, and the receiving side reads them in nearly the order they were written.
+  std::uint32_t used = 0;
+  auto claim = [&](std::uint32_t mk) {
+    if (used == mirrored_.size()) {  // more pairs in contact than ever before on this rank
+      mirrored_.resize(2 * std::size_t(used) + 64);
+      OUT = mirrored_.data();
+      if (fric) {
+        mirrored_torque_.resize(mirrored_.size());
+        OUT_TORQUE = mirrored_torque_.data();
+      }
+    }
+    MIRROR[mk] = used;  // the receiving entry: where this step's result is
+    return used++;
+  };
   Vec3* FORCE = p.f.data();
   Vec3* TORQUE = fric ? p.torque.data() : nullptr;
   constexpr bool exact = Parts::exact;
@@ -104,10 +121,14 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
           T[k] = 0;
           continue;
         }
-        if (fric) tsum += r.torque;
+        if (fric) tsum += OUT_TORQUE[MIRROR[k]];
         ++contacts;
-        overlap_sum += r.frac;
-        if (r.frac > worst) { worst = r.frac; worst_id = ID[i]; }
+        // The overlap as j's side measured it: x_i - x_j is its difference negated, exactly, so
+        // every operation below gives the same bits (cheaper to redo than to store per pair).
+        const Vec3 d = xi - X[j];
+        const double frac = (ai + A[j] - std::sqrt(d.squaredNorm())) / std::min(ai, A[j]);
+        overlap_sum += frac;
+        if (frac > worst) { worst = frac; worst_id = ID[i]; }
         continue;
       }
       const std::uint32_t mk = MIRROR[k];  // kNoMirror for a ghost partner
@@ -142,7 +163,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
               const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
               if (nj.fn != 0 || nj.shift != 0) {
                 T[mk] = kParted;
-                MirrorResult& out = OUT[MIRROR[mk]];
+                const std::uint32_t slot = claim(mk);  // first: it may move OUT
+                MirrorResult& out = OUT[slot];
                 out.f = -(nj.fn * n);
                 out.shift = nj.shift;
               }
@@ -211,8 +233,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
         if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
         const bool own_law = vdep && U[mk] != U[k];
-        MirrorResult& out = OUT[MIRROR[mk]];
-        out.frac = frac;
+        const std::uint32_t slot = claim(mk);  // first: it may move OUT
+        MirrorResult& out = OUT[slot];
         out.shift = shift;
         if (!fric && !own_law) {
           out.f = -f;
@@ -239,7 +261,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
               rolling_torque = rj.torque;
             }
           }
-          if (fric) out.torque = (-A[j] * nj).cross(ftj) + rolling_torque;
+          if (fric) OUT_TORQUE[MIRROR[mk]] = (-A[j] * nj).cross(ftj) + rolling_torque;
         }
       }
     }
@@ -331,18 +353,16 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   mirror_.assign(nl.size(), kNoMirror);
-  std::uint32_t pairs = 0;
   nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
       if (nl.partner[q] == i) {
-        mirror_[k] = q;        // the evaluating entry: the partner's entry
-        mirror_[q] = pairs++;  // the receiving entry: its pair's slot in mirrored_
+        mirror_[k] = q;  // the evaluating entry: the partner's entry
+        mirror_[q] = 0;  // the receiving entry: its result's slot, set when there is one (force())
         break;
       }
     if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");
   });
-  mirrored_.resize(pairs);  // one result per owned pair, not per list entry: half the memory
 }
 
 void ContactForces::pre_rebuild(Simulation& sim) {

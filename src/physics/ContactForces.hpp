@@ -70,13 +70,12 @@ class ContactForces : public Module {
 
  private:
   // Per list entry: on the entry that evaluates an owned pair (partner above), the partner's
-  // entry for the same pair; on the partner's (receiving) entry, the pair's slot in mirrored_,
-  // where the partner-side result is written when the pair is evaluated; kNoMirror for a
-  // ghost partner.
+  // entry for the same pair; on the partner's (receiving) entry, the slot in mirrored_ where
+  // this step's partner-side result was written (valid while touching_ says there is one);
+  // kNoMirror for a ghost partner.
   static constexpr std::uint32_t kNoMirror = 0xffffffffu;
   struct MirrorResult {
-    Vec3 f, torque;
-    double frac;
+    Vec3 f;
     double shift;  // the exact scheme's overlap shift (0 but at onset and exit steps)
   };
   static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, result in mirrored_
@@ -90,6 +89,7 @@ class ContactForces : public Module {
   LinearSpringDashpot law_;
   std::vector<std::uint32_t> mirror_;
   std::vector<MirrorResult> mirrored_;
+  std::vector<Vec3> mirrored_torque_;  // with friction: the partner's torque, per result slot
   std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
   std::vector<double> impact_;  // Bridges law: impact normal speed per entry in contact (0: none)
   std::vector<Vec3> roll_;      // rolling resistance: torque spring per entry
