@@ -51,6 +51,7 @@ n_c = 50
 end = {STEPS * tc / 50!r}
 [output]
 progress_every = 1000
+observe_every = {200 * tc / 50!r}   # a row every 200 steps, as in.gas's thermo
 [guards]
 max_overlap = 0.6   # this soft LJ-unit scene reaches ~25 % overlaps in head-on impacts
 """

@@ -91,10 +91,11 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   for (std::size_t i = 0; i < n; ++i) cell_of_[i] = g.cell(p.x[i]) + (p.copies ? p.le_copy[i] * ncell : 0);
   sort_into_cells(blocks * ncell);
 
-  start.resize(p.nlocal + 1);
-  partner.clear();
-  partner.reserve(p.nlocal * 4);
-  candidates = 0;
+  // Half stencil: each pair is tested once, from the particle whose cell comes first (13 of the
+  // 26 neighbouring cells, and the later particles of its own cell), and listed on both sides
+  // that are owned. Half the distance tests of a full stencil, and the list is symmetric by
+  // construction. Ghosts are scanned too (a pair with a ghost may be found from the ghost's
+  // side); pairs of two ghosts are not listed.
   const Vec3* X = p.x.data();
   const double* A = p.radius.data();
   const std::uint32_t* items = cell_items_.data();
@@ -107,34 +108,55 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   }
   const Eigen::Vector4d* C = sorted_.data();
   const int zr = g.n[2] > 1 ? 1 : 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    start[i] = static_cast<std::uint32_t>(partner.size());
+  const std::uint32_t nlocal = static_cast<std::uint32_t>(p.nlocal);
+  pairs_.clear();
+  candidates = 0;
+  for (std::size_t q = 0; q < n; ++q) {  // particles in cell order
+    const std::uint32_t i = items[q];
+    const bool owned = i < nlocal;
     const std::size_t block = cell_of_[i] / ncell * ncell;
     const std::uint32_t c = cell_of_[i] - block;
     const int cx = c % g.n[0], cy = (c / g.n[0]) % g.n[1], cz = c / (g.n[0] * g.n[1]);
-    const Vec3 xi = X[i];
-    const double ri = A[i] + skin;
-    for (int dz = -zr; dz <= zr; ++dz) {
+    const Eigen::Vector4d& ci = C[q];
+    const double ri = ci[3] + skin;
+    auto scan = [&](std::uint32_t from, std::uint32_t to) {
+      candidates += to - from;
+      for (std::uint32_t k = from; k < to; ++k) {
+        const Eigen::Vector4d& cj = C[k];
+        const double cut = ri + cj[3];
+        const double dx = ci[0] - cj[0], dy = ci[1] - cj[1], dz = ci[2] - cj[2];
+        if (dx * dx + dy * dy + dz * dz < cut * cut && (owned || items[k] < nlocal)) pairs_.push_back({i, items[k]});
+      }
+    };
+    scan(static_cast<std::uint32_t>(q + 1), cstart[block + c + 1]);  // the rest of its own cell
+    for (int dz = 0; dz <= zr; ++dz) {
       const int z = cz + dz;
-      if (z < 0 || z >= g.n[2]) continue;
-      for (int dy = -1; dy <= 1; ++dy) {
+      if (z >= g.n[2]) continue;
+      for (int dy = dz ? -1 : 0; dy <= 1; ++dy) {
         const int y = cy + dy;
         if (y < 0 || y >= g.n[1]) continue;
-        const int x0 = std::max(cx - 1, 0), x1 = std::min(cx + 1, g.n[0] - 1);
+        // The forward cells of this row: x + 1 alone in its own row, x - 1 .. x + 1 in later rows.
+        const int x0 = dz || dy ? std::max(cx - 1, 0) : cx + 1, x1 = std::min(cx + 1, g.n[0] - 1);
+        if (x0 > x1) continue;
         const std::size_t row = block + (std::size_t(z) * g.n[1] + y) * g.n[0];
-        // cells x0..x1 of one row are contiguous in cell_items_
-        candidates += cstart[row + x1 + 1] - cstart[row + x0];
-        for (std::uint32_t k = cstart[row + x0]; k < cstart[row + x1 + 1]; ++k) {
-          const Eigen::Vector4d& c = C[k];
-          const double cut = ri + c[3];
-          const double dx = xi[0] - c[0], dy = xi[1] - c[1], dz = xi[2] - c[2];
-          if (dx * dx + dy * dy + dz * dz < cut * cut && items[k] != i) partner.push_back(items[k]);
-        }
+        scan(cstart[row + x0], cstart[row + x1 + 1]);  // cells x0..x1 of a row are contiguous
       }
     }
-    sort_by_id(p, partner.data() + start[i], partner.size() - start[i]);
   }
-  start[p.nlocal] = static_cast<std::uint32_t>(partner.size());
+  // Both owned sides of every pair, then each particle's partners in id order.
+  start.assign(p.nlocal + 1, 0);
+  for (const auto& [i, j] : pairs_) {
+    if (i < nlocal) ++start[i + 1];
+    if (j < nlocal) ++start[j + 1];
+  }
+  for (std::size_t i = 0; i < p.nlocal; ++i) start[i + 1] += start[i];
+  partner.resize(start[p.nlocal]);
+  fill_.assign(start.begin(), start.end() - 1);
+  for (const auto& [i, j] : pairs_) {
+    if (i < nlocal) partner[fill_[i]++] = j;
+    if (j < nlocal) partner[fill_[j]++] = i;
+  }
+  for (std::size_t i = 0; i < p.nlocal; ++i) sort_by_id(p, partner.data() + start[i], start[i + 1] - start[i]);
 }
 
 void NeighborList::build_by_size_class(const ParticleStore& p, const Decomposition& dom, double range, double skin,

@@ -77,6 +77,8 @@ class NeighborList {
   void sort_into_cells(std::size_t ncells);  // cell_start_, cell_items_ from cell_of_
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
   std::vector<Eigen::Vector4d> sorted_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs_;  // the half-stencil build's pairs
+  std::vector<std::uint32_t> fill_;
 };
 
 }  // namespace cassini
