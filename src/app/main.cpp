@@ -1,4 +1,5 @@
 // cassini: MPI-parallel discrete element solver.  mpirun -n N cassini cases/<scene> [options]
+#include <malloc.h>
 #include <chrono>
 #include <filesystem>
 #include <iostream>
@@ -23,6 +24,11 @@ namespace fs = std::filesystem;
 using namespace cassini;
 
 int main(int argc, char** argv) {
+  // Large arrays (particle columns, lists, buffers: >= 256 KiB) each get their own mapping and go
+  // back to the system when freed or moved. glibc otherwise raises this threshold as such blocks
+  // are freed and serves them from the heap, where the transient buffers of a rebuild fragment
+  // it and the resident set keeps their high-water mark.
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
   MPI_Init(&argc, &argv);
   int rank = 0, nranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);

@@ -20,6 +20,14 @@ std::int64_t bits_id(double d) {
 
 }  // namespace
 
+std::vector<std::vector<double>>& HaloExchange::empty_buffers() {
+  // One set of send buffers for migration, ghost builds and ghost updates, emptied but never
+  // freed: their sizes change little from one rebuild to the next.
+  out_.resize(dom_.nranks);
+  for (auto& b : out_) b.clear();
+  return out_;
+}
+
 Vec3 HaloExchange::shift(const Image& im) const {
   Vec3 s(im.k[0] * dom_.length[0], im.k[1] * dom_.length[1], im.k[2] * dom_.length[2]);
   // Offset relative to its wrap at the last build, so an image does not jump by Lx when the
@@ -34,28 +42,39 @@ double HaloExchange::shear_velocity(const Image& im) const {
 
 void HaloExchange::exchange(std::vector<std::vector<double>>& out, std::vector<double>& in,
                             const std::vector<int>* known) {
-  const int n = dom_.nranks;
-  std::vector<int> scount(n), rcount(n), sdispl(n), rdispl(n);
-  std::vector<double> sendbuf;
+  // Point to point from each destination's own buffer: no concatenated copy of everything sent
+  // (that copy was allocated at every ghost update), and this rank's part (periodic images of
+  // its own particles) is one copy, without MPI.
+  const int n = dom_.nranks, me = dom_.rank;
+  std::vector<int> scount(n), rcount(n);
   for (int r = 0; r < n; ++r) {
     scount[r] = static_cast<int>(out[r].size());
-    sdispl[r] = static_cast<int>(sendbuf.size());
-    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
-    if (r != dom_.rank && scount[r] > 0) {
+    if (r != me && scount[r] > 0) {
       bytes_sent += static_cast<std::int64_t>(scount[r]) * static_cast<std::int64_t>(sizeof(double));
       ++messages_sent;
     }
   }
   if (known) rcount = *known;
   else MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, dom_.comm);
-  int total = 0;
-  for (int r = 0; r < n; ++r) {
-    rdispl[r] = total;
-    total += rcount[r];
-  }
-  in.resize(total);
-  MPI_Alltoallv(sendbuf.data(), scount.data(), sdispl.data(), MPI_DOUBLE, in.data(), rcount.data(),
-                rdispl.data(), MPI_DOUBLE, dom_.comm);
+  std::vector<std::size_t> rdispl(n + 1, 0);
+  for (int r = 0; r < n; ++r) rdispl[r + 1] = rdispl[r] + rcount[r];
+  if (rcount[me] != scount[me]) throw std::logic_error("HaloExchange: this rank's own images miscounted");
+  in.resize(rdispl[n]);
+  constexpr int kTag = 7301;
+  std::vector<MPI_Request> requests;
+  requests.reserve(2 * n);
+  for (int r = 0; r < n; ++r)
+    if (r != me && rcount[r] > 0) {
+      requests.emplace_back();
+      MPI_Irecv(in.data() + rdispl[r], rcount[r], MPI_DOUBLE, r, kTag, dom_.comm, &requests.back());
+    }
+  for (int r = 0; r < n; ++r)
+    if (r != me && scount[r] > 0) {
+      requests.emplace_back();
+      MPI_Isend(out[r].data(), scount[r], MPI_DOUBLE, r, kTag, dom_.comm, &requests.back());
+    }
+  std::copy(out[me].begin(), out[me].end(), in.begin() + rdispl[me]);
+  MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
 }
 
 namespace {
@@ -110,7 +129,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
   std::sort(history.begin(), history.end(), [](const HistoryEntry& a, const HistoryEntry& b) {
     return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
   });
-  std::vector<std::vector<double>> out(dom_.nranks);
+  std::vector<std::vector<double>>& out = empty_buffers();
   const Vec3 L = dom_.length;
   for (std::size_t i = p.nlocal; i-- > 0;) {
     Vec3& x = p.x[i];
@@ -164,7 +183,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
       p.resize(last);
     }
   }
-  std::vector<double> in;
+  std::vector<double>& in = in_;
   exchange(out, in);
   for (std::size_t o = 0; o < in.size();) {
     o = p.unpack(in, o);
@@ -183,7 +202,8 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
 
 void HaloExchange::build_ghosts(ParticleStore& p) {
   p.resize(p.nlocal);
-  send_.assign(dom_.nranks, {});
+  send_.resize(dom_.nranks);
+  for (auto& s : send_) s.clear();  // kept: the lists of the last build had the right size
   const Vec3 L = dom_.length;
   const bool sheared = dom_.shear.enabled;
   const double off = sheared ? dom_.shear.wrapped(L[0]) : 0.0;
@@ -255,7 +275,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   }
 
   // First exchange carries the full description of each ghost; later ones only the motion.
-  std::vector<std::vector<double>> out(dom_.nranks);
+  std::vector<std::vector<double>>& out = empty_buffers();
   for (int r = 0; r < dom_.nranks; ++r)
     for (const Image& im : send_[r]) {
       const std::size_t i = im.index;
@@ -268,7 +288,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
       for (const auto& c : p.module_columns)
         if (c.ghosts) b.insert(b.end(), &c.data[i * c.width], &c.data[i * c.width] + c.width);
     }
-  std::vector<double> in;
+  std::vector<double>& in = in_;
   exchange(out, in);
   const int extra = p.ghost_column_width();  // the modules' columns, last
   const std::size_t width = 10 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0) + extra;
@@ -300,7 +320,6 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
         q += c.width;
       }
   }
-  out_.assign(dom_.nranks, {});
 }
 
 void HaloExchange::update_ghosts(ParticleStore& p) {

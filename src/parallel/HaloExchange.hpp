@@ -66,9 +66,11 @@ class HaloExchange {
   // ids agreed by every rank (ordered by the crossing particle's id).
   void feed(ParticleStore& p);
   Vec3 shift(const Image& im) const;
+  std::vector<std::vector<double>>& empty_buffers();
   double shear_velocity(const Image& im) const;
-  // Alltoallv of per-rank buffers. With `rcount` given, the receive sizes are known and the
-  // count exchange is skipped (the per-step ghost update).
+  // Sends out[r] to rank r and gathers what every rank sent here into `in`, ordered by source
+  // rank. With `rcount` given, the receive sizes are known and the count exchange is skipped
+  // (the per-step ghost update).
   void exchange(std::vector<std::vector<double>>& out, std::vector<double>& in,
                 const std::vector<int>* rcount = nullptr);
 

@@ -7,6 +7,17 @@
 
 namespace cassini {
 
+namespace {
+// assign(n, value) with room to spare when it must grow: the lists' length wanders up and down
+// between rebuilds, and an exact fit would be reallocated (fresh pages) whenever it reaches a
+// new maximum.
+template <class Vector, class T>
+void refill(Vector& v, std::size_t n, const T& value) {
+  if (n > v.capacity()) v.reserve(n + n / 8);
+  v.assign(n, value);
+}
+}  // namespace
+
 void ContactForces::force(Simulation& sim) {
   law_.with_parts([&](const auto& parts) { evaluate(sim, parts); });
 }
@@ -18,7 +29,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   constexpr bool fric = Parts::friction;
-  if (fric && xi_.size() != nl.size()) xi_.assign(nl.size(), Vec3::Zero());
+  if (fric && xi_.size() != nl.size()) refill(xi_, nl.size(), Vec3::Zero());
   long contacts = 0;
   double worst = 0;
   std::int64_t worst_id = -1;
@@ -33,7 +44,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const std::uint32_t* start = nl.start.data();
   const std::uint32_t* partner = nl.partner.data();
   Vec3* XI = fric ? xi_.data() : nullptr;
-  if (touching_.size() != nl.size()) touching_.assign(nl.size(), 0);
+  if (touching_.size() != nl.size()) refill(touching_, nl.size(), 0);
   std::uint8_t* T = touching_.data();
   const std::int64_t* ID = p.id.data();
   double overlap_sum = 0;
@@ -71,9 +82,9 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   constexpr bool hertz = Parts::hertz;
   // Rolling and twisting resistance: a torque spring per entry, history like xi_ (friction is on).
   constexpr bool rolls = Parts::rolling;
-  if (rolls && roll_.size() != nl.size()) roll_.assign(nl.size(), Vec3::Zero());
+  if (rolls && roll_.size() != nl.size()) refill(roll_, nl.size(), Vec3::Zero());
   Vec3* XR = rolls ? roll_.data() : nullptr;
-  if (vdep && impact_.size() != nl.size()) impact_.assign(nl.size(), 0.0);
+  if (vdep && impact_.size() != nl.size()) refill(impact_, nl.size(), 0.0);
   double* U = vdep ? impact_.data() : nullptr;
   PairLaw contact_law;  // scratch for a contact's own law
   auto law_of = [&](int a, int b, std::uint32_t k) -> const PairLaw& {
@@ -352,7 +363,7 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
 
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
-  mirror_.assign(nl.size(), kNoMirror);
+  refill(mirror_, nl.size(), kNoMirror);
   nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
@@ -376,7 +387,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
   const NeighborList& nl = sim.neighbors;
   build_mirrors(p, nl);
   // Pairs already touching across a rebuild are not new collisions.
-  touching_.assign(nl.size(), 0);
+  refill(touching_, nl.size(), 0);
   nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     const double R = p.radius[i] + p.radius[j];
     const Vec3 d = p.x[i] - p.x[j];
@@ -393,9 +404,9 @@ void ContactForces::post_rebuild(Simulation& sim) {
   });
   if (!keeps_history()) return;
   auto& stash = sim.history;
-  if (law_.friction()) xi_.assign(nl.size(), Vec3::Zero());
-  if (law_.velocity_dependent()) impact_.assign(nl.size(), 0.0);
-  if (law_.rolling()) roll_.assign(nl.size(), Vec3::Zero());
+  if (law_.friction()) refill(xi_, nl.size(), Vec3::Zero());
+  if (law_.velocity_dependent()) refill(impact_, nl.size(), 0.0);
+  if (law_.rolling()) refill(roll_, nl.size(), Vec3::Zero());
   auto before = [](const HistoryEntry& a, const HistoryEntry& b) {
     return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
   };
