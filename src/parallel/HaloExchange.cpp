@@ -126,9 +126,16 @@ void HaloExchange::feed(ParticleStore& p) {
 void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history) {
   p.resize(p.nlocal);  // drop ghosts
   if (dom_.fed_x) feed(p);
-  std::sort(history.begin(), history.end(), [](const HistoryEntry& a, const HistoryEntry& b) {
-    return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
-  });
+  // The history is looked up by owner for the particles that leave: sorted when the first one
+  // does (most rebuilds of a periodic box on one rank move nobody away).
+  bool sorted = false;
+  auto sort_history = [&] {
+    if (sorted) return;
+    std::sort(history.begin(), history.end(), [](const HistoryEntry& a, const HistoryEntry& b) {
+      return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
+    });
+    sorted = true;
+  };
   std::vector<std::vector<double>>& out = empty_buffers();
   const Vec3 L = dom_.length;
   for (std::size_t i = p.nlocal; i-- > 0;) {
@@ -165,6 +172,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
       if (!gone) {
         auto& buf = out[dest];
         p.pack(i, buf);
+        sort_history();
         auto [b, e] = std::equal_range(history.begin(), history.end(), HistoryEntry{p.id[i], 0, {}},
                                        [](const HistoryEntry& a, const HistoryEntry& c) { return a.owner < c.owner; });
         buf.push_back(static_cast<double>(e - b));

@@ -41,6 +41,7 @@ LinearSpringDashpot::LinearSpringDashpot(const Config& cfg, double dt) : n_(stat
       hertz_ = hertz_ || q.e_star > 0;
     }
   velocity_dependent_ = cfg.velocity_dependent_restitution();
+  parts_ = {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_, clip_};
   // Against walls: the species' own law with its wall friction.
   for (int a = 0; a < n_; ++a) {
     wall_table_.push_back(table_[a * n_ + a]);

@@ -177,7 +177,7 @@ class LinearSpringDashpot {
   const PairLaw& law(int a, int b) const { return table_[a * n_ + b]; }
   bool friction() const { return friction_; }
   bool exact() const { return exact_; }
-  RuntimeParts parts() const { return {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_, clip_}; }
+  const RuntimeParts& parts() const { return parts_; }
   // Calls f(LawParts<...>{}) with this scene's parts as compile-time constants: the one place
   // that lists the combinations a loop is compiled for.
   template <class F>
@@ -405,7 +405,7 @@ class LinearSpringDashpot {
     const bool rolls = roll && xi && delta > 0 && (L->mu_r > 0 || L->mu_o > 0);
     Rolling rl;
     if (rolls) rl = {p.omega[i], 1.4 * p.mass[i] * a * a, *roll};  // the wall does not spin; I + m a^2
-    const Vec3 f = force(*L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, reff, rolls ? &rl : nullptr);
+    const Vec3 f = force(parts_, *L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, reff, rolls ? &rl : nullptr);
     if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
     if (xi) torque = (-a * n).cross(ft) + rl.torque;  // frictionless walls exert no torque: skip the work
     else torque.setZero();
@@ -431,6 +431,7 @@ class LinearSpringDashpot {
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;
   bool velocity_dependent_ = false, hertz_ = false, rolling_ = false;
+  RuntimeParts parts_{};  // the flags above, as the law's run-time parts
   std::vector<PairLaw> table_;
   std::vector<PairLaw> wall_table_;  // per species: its own law, with its wall friction
   std::vector<double> half_ = std::vector<double>(n_ * n_);  // sin(omega dt / 2) per pair
