@@ -389,6 +389,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
   // Pairs already touching across a rebuild are not new collisions.
   refill(touching_, nl.size(), 0);
   nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+    if (j < i) return;  // an owned pair: set from its lower slot, below
     const double R = p.radius[i] + p.radius[j];
     const Vec3 d = p.x[i] - p.x[j];
     // The exact scheme needs to know which pairs touched a step ago (to correct their exit,
@@ -401,26 +402,38 @@ void ContactForces::post_rebuild(Simulation& sim) {
     } else {
       touching_[k] = d.squaredNorm() < R * R;
     }
+    // The partner's entry: d and v_i - v_j negated exactly, the same operations, the same answer.
+    if (mirror_[k] != kNoMirror) touching_[mirror_[k]] = touching_[k];
   });
   if (!keeps_history()) return;
   auto& stash = sim.history;
   if (law_.friction()) refill(xi_, nl.size(), Vec3::Zero());
   if (law_.velocity_dependent()) refill(impact_, nl.size(), 0.0);
   if (law_.rolling()) refill(roll_, nl.size(), Vec3::Zero());
-  auto before = [](const HistoryEntry& a, const HistoryEntry& b) {
-    return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
-  };
-  std::sort(stash.begin(), stash.end(), before);
-  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
-    if (!touching_[k]) return;  // separated during the drift: the spring is gone
-    const HistoryEntry key{p.id[i], p.id[j], {}};
-    auto it = std::lower_bound(stash.begin(), stash.end(), key, before);
-    if (it != stash.end() && it->owner == key.owner && it->partner == key.partner) {
-      if (law_.friction()) xi_[k] = it->xi;
-      if (law_.velocity_dependent()) impact_[k] = it->impact;
-      if (law_.rolling()) roll_[k] = it->roll;
-    }
+  // The stash's (owner, partner) keys sorted, not the entries themselves (a third of the bytes
+  // to move); each particle then finds its owner block once and walks it with its list, both in
+  // partner-id order.
+  keys_.clear();
+  for (std::uint32_t at = 0; at < stash.size(); ++at) keys_.push_back({stash[at].owner, stash[at].partner, at});
+  std::sort(keys_.begin(), keys_.end(), [](const StashKey& a, const StashKey& b) {
+    return a.owner < b.owner || (a.owner == b.owner && (a.partner < b.partner || (a.partner == b.partner && a.at < b.at)));
   });
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    auto it = keys_.end();
+    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+      if (!touching_[k]) continue;  // separated during the drift: the spring is gone
+      if (it == keys_.end())
+        it = std::lower_bound(keys_.begin(), keys_.end(), p.id[i],
+                              [](const StashKey& a, std::int64_t owner) { return a.owner < owner; });
+      const std::int64_t partner = p.id[nl.partner[k]];
+      while (it != keys_.end() && it->owner == p.id[i] && it->partner < partner) ++it;
+      if (it == keys_.end() || it->owner != p.id[i] || it->partner != partner) continue;
+      const HistoryEntry& h = stash[it->at];
+      if (law_.friction()) xi_[k] = h.xi;
+      if (law_.velocity_dependent()) impact_[k] = h.impact;
+      if (law_.rolling()) roll_[k] = h.roll;
+    }
+  }
   stash.clear();
 }
 

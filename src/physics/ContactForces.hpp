@@ -95,6 +95,11 @@ class ContactForces : public Module {
   std::vector<Vec3> roll_;      // rolling resistance: torque spring per entry
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   PendingShifts shifts_;  // exact scheme: moves of this step
+  struct StashKey {
+    std::int64_t owner, partner;
+    std::uint32_t at;  // the entry in the stash
+  };
+  std::vector<StashKey> keys_;  // post_rebuild's look-up of the history stash
   double overlap_sum_ = 0;
   long collisions_ = 0;
   double impact_loss_ = 0;
