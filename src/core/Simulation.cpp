@@ -90,7 +90,10 @@ void Simulation::check_initial_overlaps() {
 }
 
 void Simulation::rebuild() {
-  for (Module* m : stage_[4]) m->pre_rebuild(*this);
+  {
+    auto t = timers.scope(StageTimers::Neighbour);  // the modules' lists and histories are part of it
+    for (Module* m : stage_[4]) m->pre_rebuild(*this);
+  }
   if (cfg.balance_every > 0 && domain.nranks > 1 && rebuilds % cfg.balance_every == 0) {
     // Cost of a particle: 1 + its neighbour-list entries (integration plus pair work).
     std::vector<Vec3> where(particles.x.begin(), particles.x.begin() + particles.nlocal);
@@ -148,7 +151,10 @@ void Simulation::rebuild() {
     imbalance_worst = std::max(imbalance_worst, now);
     ++imbalance_samples;
   }
-  for (Module* m : stage_[4]) m->post_rebuild(*this);
+  {
+    auto t = timers.scope(StageTimers::Neighbour);
+    for (Module* m : stage_[4]) m->post_rebuild(*this);
+  }
   for (std::size_t i = 0; i < particles.nlocal; ++i) particles.x_build[i] = particles.x[i];
   time_at_build_ = time;
   ++rebuilds;

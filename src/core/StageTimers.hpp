@@ -17,7 +17,7 @@ struct StageTimers {
   // What each stage holds (run.log prints this under the table).
   static constexpr std::array<const char*, kStages> meaning = {
       "drift and kicks (initial and final integrate)", "particle-particle contacts",
-      "neighbour-list builds, spatial sort", "ghost updates, migration, ghost builds, the per-step reduction",
+      "neighbour-list builds, spatial sort, modules' rebuild work (contact history)", "ghost updates, migration, ghost builds, the per-step reduction",
       "every other module's forces and end-of-step work", "observables, dumps, snapshots, progress"};
 
   StageTimers() { reset(); }
