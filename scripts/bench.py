@@ -1,5 +1,5 @@
 """Drives scripts/bench: identical gas scene in cassini and LAMMPS, medians of repeats."""
-import math, os, re, statistics, subprocess, sys, tempfile, json
+import math, os, re, shutil, statistics, subprocess, sys, tempfile, json
 
 REPEATS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 STEPS = 1000
@@ -57,9 +57,19 @@ max_overlap = 0.6   # this soft LJ-unit scene reaches ~25 % overlaps in head-on 
 """
 
 
-def peak_rss_kb(stderr):
-    vals = [int(v) for v in re.findall(r"Maximum resident set size \(kbytes\): (\d+)", stderr)]
-    return vals
+def timed(ranks, command):
+    """mpirun of command under /usr/bin/time, each rank's report in its own file (two ranks
+    writing theirs to one stderr can interleave and lose a line); returns (command, reader)."""
+    d = tempfile.mkdtemp()
+    wrap = ["sh", "-c", '/usr/bin/time -v -o "$0/rank.${OMPI_COMM_WORLD_RANK:-0}" "$@"', d]
+    def peak_bytes():
+        vals = []
+        for r in range(ranks):
+            text = open(os.path.join(d, f"rank.{r}")).read()
+            vals.append(int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", text).group(1)))
+        shutil.rmtree(d)
+        return sum(vals) * 1024
+    return MPI + ["-n", str(ranks)] + wrap + command, peak_bytes
 
 
 def run_cassini(n, friction, ranks, tmp):
@@ -68,27 +78,26 @@ def run_cassini(n, friction, ranks, tmp):
     with open(os.path.join(path, "case.toml"), "w") as f:
         f.write(case_text(n, friction))
     out = os.path.join(tmp, f"out_{n}_{friction}_{ranks}")
-    cmd = MPI + ["-n", str(ranks), "/usr/bin/time", "-v", "build/cassini", path, "--out", out, "--force"]
+    cmd, peak_bytes = timed(ranks, [os.path.abspath("build/cassini"), path, "--out", out, "--force"])
     r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
     if r.returncode != 0:
         sys.exit("cassini failed:\n" + r.stdout + r.stderr)
     s = json.load(open(os.path.join(out, "summary.json")))
-    rss = peak_rss_kb(r.stderr)
     stages = {k: v["mean"] for k, v in s.get("stage_seconds", {}).items()}
-    return s["particle_steps_per_second"] / ranks, sum(rss) * 1024, stages
+    return s["particle_steps_per_second"] / ranks, peak_bytes(), stages
 
 
 def run_lammps(n, friction, ranks):
     nx, ny, nz = SIZES[n]
-    cmd = MPI + ["-n", str(ranks), "/usr/bin/time", "-v", "lmp", "-in", LAMMPS_IN, "-log", "none", "-screen", "none",
-                 "-var", "nx", str(nx), "-var", "ny", str(ny), "-var", "nz", str(nz), "-var", "friction", str(friction)]
+    cmd, peak_bytes = timed(ranks, ["lmp", "-in", LAMMPS_IN, "-log", "none", "-screen", "none", "-var", "nx", str(nx),
+                                    "-var", "ny", str(ny), "-var", "nz", str(nz), "-var", "friction", str(friction)])
     # -screen none hides the loop time; read it from the log instead.
     with tempfile.TemporaryDirectory() as d:
         cmd[cmd.index("-log") + 1] = os.path.join(d, "log.lammps")
         r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
         log = open(os.path.join(d, "log.lammps")).read()
     t = float(re.search(r"Loop time of ([0-9.eE+-]+) on", log).group(1))
-    return n * STEPS / t / ranks, sum(peak_rss_kb(r.stderr)) * 1024
+    return n * STEPS / t / ranks, peak_bytes()
 
 
 def main():
