@@ -182,7 +182,7 @@ class LinearSpringDashpot {
   // that lists the combinations a loop is compiled for.
   template <class F>
   void with_parts(F&& f) const {
-    const bool flags[5] = {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_};
+    const bool flags[5] = {parts_.exact, parts_.hertz, parts_.friction, parts_.rolling, parts_.bridges};
     pick<0>(f, flags);
   }
   double dt() const { return dt_; }
@@ -418,7 +418,7 @@ class LinearSpringDashpot {
   void pick(F& f, const bool* flags) const {
     if constexpr (N == 5) {
       using P = LawParts<Chosen...>;
-      if constexpr (P::valid) f(P{clip_});
+      if constexpr (P::valid) f(P{parts_.clip});
       else throw std::logic_error("contact law: an invalid combination of parts");
     } else if (flags[N]) {
       pick<N + 1, F, Chosen..., true>(f, flags);
