@@ -102,34 +102,34 @@ void ChannelWalls::force(Simulation& sim) {
   worst_id_ = deepest.id;
 }
 
-void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
-  const ParticleStore& p = sim.particles;
+template <class Visit>
+void ChannelWalls::for_each_touching(const ParticleStore& p, Visit&& visit) const {
   std::vector<WallContact> touching;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     touching.clear();
     geometry_.contacts(p.x[i][0], p.x[i][1], p.radius[i], touching);
-    for (const auto& c : touching) {
-      if (c.distance <= 0) continue;
-      const Vec3 n(c.nx, c.ny, 0);
-      const Vec3 f = wall_contact_force(law_, p, i, n, p.radius[i] - c.distance, first_slot_ + c.feature);
-      out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
-    }
+    for (const auto& c : touching)
+      if (c.distance > 0) visit(i, c);
   }
+}
+
+void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
+  const ParticleStore& p = sim.particles;
+  for_each_touching(p, [&](std::size_t i, const WallContact& c) {
+    const Vec3 n(c.nx, c.ny, 0);
+    const Vec3 f = wall_contact_force(law_, p, i, n, p.radius[i] - c.distance, first_slot_ + c.feature);
+    out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
+  });
 }
 
 void ChannelWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
 
 double ChannelWalls::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
-  std::vector<WallContact> touching;
   double e = 0;
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    touching.clear();
-    geometry_.contacts(p.x[i][0], p.x[i][1], p.radius[i], touching);
-    for (const auto& c : touching)
-      if (c.distance > 0)
-        e += wall_contact_energy(law_, p, i, Vec3(c.nx, c.ny, 0), p.radius[i] - c.distance, first_slot_ + c.feature);
-  }
+  for_each_touching(p, [&](std::size_t i, const WallContact& c) {
+    e += wall_contact_energy(law_, p, i, Vec3(c.nx, c.ny, 0), p.radius[i] - c.distance, first_slot_ + c.feature);
+  });
   return e;
 }
 

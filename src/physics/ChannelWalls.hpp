@@ -31,6 +31,9 @@ class ChannelWalls : public Module {
   const ChannelGeometry& geometry() const { return geometry_; }
 
  private:
+  // Calls visit(i, contact) for every face or edge an owned particle touches now (reports).
+  template <class Visit>
+  void for_each_touching(const ParticleStore& p, Visit&& visit) const;
   LinearSpringDashpot law_;
   PendingShifts shifts_;
   ChannelGeometry geometry_;
