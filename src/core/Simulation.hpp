@@ -99,6 +99,7 @@ class Simulation {
   double range = 0, skin = 0;
   double halo_range = 0;  // >= range: the ghosts' reach (Config::halo_range)
   long rebuilds = 0;
+  static constexpr long kSortEvery = 10;  // rebuilds between spatial sorts of the owned particles
   StageTimers timers;  // this rank's wall time per stage of the step
   double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
   // Max / mean rank cost (particles + neighbour pairs) measured at every rebuild.
