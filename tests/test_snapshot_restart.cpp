@@ -12,6 +12,7 @@
 #include <hdf5.h>
 
 #include "ChannelScene.hpp"
+#include "physics/DampingLimit.hpp"
 #include "TestScene.hpp"
 #include "physics/MultiRateHill.hpp"
 #include "io/Snapshot.hpp"
@@ -145,6 +146,27 @@ void expect_restart_bitwise(const std::string& scene) {
 }  // namespace
 
 TEST(Snapshot, RestartContinuesBitwiseOnTheSameAndOnAnotherRankCount) { expect_restart_bitwise(kScene); }
+
+TEST(Snapshot, DampingLimitedPileRestartsBitwise) {
+  // e = 0.1 at N_c = 5: crowded beads' dashpots are limited by their contact loads of the
+  // previous step (DampingLimit.hpp, particles/grains/damping_load), which the snapshot must
+  // carry. The scene must actually crowd: some bead over the bound at the end.
+  std::string scene = kScene;
+  scene.replace(scene.find("e = 0.7"), 7, "e = 0.1");
+  scene.replace(scene.find("n_c = 50"), 8, "n_c = 5");
+  expect_restart_bitwise(scene);
+  auto sim = make_sim(scene);
+  sim->setup();
+  for (int s = 0; s < 1200; ++s) sim->step();
+  const auto& p = sim->particles;
+  const std::size_t load = p.find_column("damping_load");
+  ASSERT_NE(load, ParticleStore::kNoColumn);
+  int crowded = 0, total = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) crowded += p.column(load, i)[0] + 2 * p.column(load, i)[1] > DampingLimit::kBound;
+  MPI_Allreduce(&crowded, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+  std::printf("beads over the damping bound after 1,200 steps: %d\n", total);
+  EXPECT_GT(total, 0);
+}
 
 TEST(Snapshot, RollingResistanceRestartsBitwise) {
   // The rolling and twisting torque springs of the contacts open at the snapshot (pairs and the

@@ -113,6 +113,7 @@ struct Config {
   std::vector<std::string> modules;
   bool clip_normal = false;
   bool exact_contacts = true;  // contact.scheme: "exact" (true) or "verlet"
+  bool damping_limit = true;   // contact.damping_limit: crowded particles' dashpots limited (DampingLimit.hpp)
   double skin = 0;                // Verlet skin; default 0.1 x largest diameter
   double max_rebuild_every = 0;   // 0: rebuild only on displacement
 

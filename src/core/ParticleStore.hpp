@@ -56,6 +56,13 @@ struct ParticleStore {
   std::vector<ModuleColumn> module_columns;
   // Returns the column's index in module_columns. Declared before any particle exists.
   std::size_t declare(const std::string& name, int width, bool ghosts);
+  // The index of a declared column, or kNoColumn (for columns several modules share).
+  static constexpr std::size_t kNoColumn = static_cast<std::size_t>(-1);
+  std::size_t find_column(const std::string& name) const {
+    for (std::size_t c = 0; c < module_columns.size(); ++c)
+      if (module_columns[c].name == name) return c;
+    return kNoColumn;
+  }
   double* column(std::size_t c, std::size_t i) { return &module_columns[c].data[i * module_columns[c].width]; }
   const double* column(std::size_t c, std::size_t i) const { return &module_columns[c].data[i * module_columns[c].width]; }
   int ghost_column_width() const;  // doubles per ghost of the columns with `ghosts`

@@ -257,6 +257,7 @@ Config read_config(CaseFile& f) {
   c.exact_contacts = scheme == "exact";
   if (c.exact_contacts && c.clip_normal)
     f.fail("contact.scheme", "\"verlet\" with contact.clip_normal = true (the exact scheme integrates the unclipped law)");
+  c.damping_limit = f.boolean("contact.damping_limit", true);
   c.skin = f.number("contact.skin", 0.2 * c.max_radius());
   if (!(c.skin > 0)) f.fail("contact.skin", "a positive length");
   c.max_rebuild_every = f.integer("contact.rebuild_every", 0);

@@ -20,6 +20,7 @@ ModuleKind ChannelWalls::kind() {
   auto make = [](Simulation& sim) {
     auto walls = std::make_unique<ChannelWalls>(sim.cfg, sim.dt, 0);
     walls->first_slot_ = sim.claim_wall_slots(walls->geometry().features());
+    if (walls->law_.damping_limit()) walls->limit_ = DampingLimit::attach(sim.particles);
     return walls;
   };
   return {"channel", {}, read, make};
@@ -93,7 +94,7 @@ void ChannelWalls::force(Simulation& sim) {
       }
       const Vec3 n(c.nx, c.ny, 0);
       const double delta = a - c.distance;
-      if (wall_contact(law_, p, i, n, delta, wall_springs(p, fric, i, first_slot_ + c.feature), move))
+      if (wall_contact(law_, p, i, n, delta, wall_springs(p, fric, i, first_slot_ + c.feature), move, 0, limit_))
         deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);
@@ -122,7 +123,10 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
   });
 }
 
-void ChannelWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
+void ChannelWalls::final_integrate(Simulation& sim) {
+  shifts_.apply(sim.particles);
+  limit_.finish_step(sim.particles);
+}
 
 double ChannelWalls::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;

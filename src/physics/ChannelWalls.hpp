@@ -19,7 +19,9 @@ class ChannelWalls : public Module {
   static ModuleKind kind();
   ChannelWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
-  unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
+  unsigned stages() const override {
+    return kForce | kRebuild | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u);
+  }
   void force(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
@@ -35,6 +37,7 @@ class ChannelWalls : public Module {
   template <class Visit>
   void for_each_touching(const ParticleStore& p, Visit&& visit) const;
   LinearSpringDashpot law_;
+  DampingLimit limit_;
   PendingShifts shifts_;
   ChannelGeometry geometry_;
   int first_slot_;

@@ -92,6 +92,13 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     contact_law = law_.at_impact(a, b, U[k]);
     return contact_law;
   };
+  // Crowded particles (DampingLimit): this step's loads, and dashpots scaled by last step's.
+  const bool limit = limit_.on();
+  PairLaw limited_law;  // scratch for a contact whose dashpots are limited
+  auto add_load = [&](std::size_t i, std::size_t j, const PairLaw& L) {
+    const LinearSpringDashpot::Stability st = law_.stability(L);
+    limit_.add(p, i, st.K, st.G, DampingLimit::weight(M[i], M[j]));
+  };
   shifts_.clear();
   // A contact with a partner's image across a Lees-Edwards boundary does work at the image's
   // velocity jump +-gamma_dot L_y: the boundary's share of the shear work (the rest comes with
@@ -133,6 +140,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
           continue;
         }
         if (fric) tsum += OUT_TORQUE[MIRROR[k]];
+        if (limit) add_load(i, j, law_of(si, S[j], k));
         ++contacts;
         // The overlap as j's side measured it: x_i - x_j is its difference negated, exactly, so
         // every operation below gives the same bits (cheaper to redo than to store per pair).
@@ -203,7 +211,10 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       // touching without a recorded impact (initial overlaps, a snapshot from before impact
       // speeds were stored) takes its present approach speed.
       if (vdep && (fresh || U[k] == 0)) U[k] = std::max(-vrel.dot(n), 0.0);
-      const PairLaw& L = law_of(si, S[j], k);
+      const PairLaw& L0 = law_of(si, S[j], k);
+      const double damping = limit ? std::min(limit_.scale(p, i), limit_.scale(p, j)) : 1.0;
+      if (limit) add_load(i, j, L0);
+      const PairLaw& L = damping < 1 ? (limited_law = LinearSpringDashpot::damped(L0, damping)) : L0;
       if (onset) {
         const double u = -vrel.dot(n), e = L.e;
         impact_loss_ += 0.5 * (1 - e * e) * m * u * u;
@@ -262,7 +273,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
               rolling_torque = -rl.torque;
             }
           } else {
-            const PairLaw Lj = own_law ? law_of(S[j], si, mk) : L;
+            const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
+                                                          : law_of(S[j], si, mk);
             Rolling rj;
             if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
             out.f = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
@@ -288,7 +300,10 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   worst_id_ = worst_id;
 }
 
-void ContactForces::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
+void ContactForces::final_integrate(Simulation& sim) {
+  shifts_.apply(sim.particles);
+  limit_.finish_step(sim.particles);
+}
 
 double ContactForces::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
@@ -342,7 +357,11 @@ void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& o
 }
 
 ModuleKind ContactForces::kind() {
-  return {"contact", {}, nullptr, [](Simulation& sim) { return std::make_unique<ContactForces>(sim.cfg, sim.dt); }};
+  return {"contact", {}, nullptr, [](Simulation& sim) {
+            auto c = std::make_unique<ContactForces>(sim.cfg, sim.dt);
+            if (c->law_.damping_limit()) c->limit_ = DampingLimit::attach(sim.particles);
+            return c;
+          }};
 }
 
 void ContactForces::setup(Simulation& sim) {

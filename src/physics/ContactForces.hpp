@@ -9,6 +9,7 @@
 #include "core/NeighborList.hpp"
 #include "core/ParticleStore.hpp"
 #include "parallel/HaloExchange.hpp"
+#include "physics/DampingLimit.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 namespace cassini {
@@ -17,12 +18,14 @@ class ContactForces : public Module {
  public:
   static ModuleKind kind();
   ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
-  std::string name() const override { 
+  std::string name() const override {
     return std::string("contact (LSD") + (law_.friction() ? " + friction" : "") +
-           (law_.velocity_dependent() ? " + Bridges e(u)" : "") + ")";
+           (law_.velocity_dependent() ? " + Bridges e(u)" : "") + (limit_.on() ? " + damping limit" : "") + ")";
   }
   // The exact scheme moves pairs at its onset and exit steps, at the end of the step.
-  unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
+  unsigned stages() const override {
+    return kForce | kRebuild | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u);
+  }
   void final_integrate(Simulation& sim) override;
 
   void force(Simulation& sim) override;
@@ -87,6 +90,7 @@ class ContactForces : public Module {
   PairLaw entry_law(int a, int b, std::uint32_t k) const;
 
   LinearSpringDashpot law_;
+  DampingLimit limit_;  // on when a crowded particle could need it (LinearSpringDashpot::damping_limit)
   std::vector<std::uint32_t> mirror_;
   std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> mirrored_torque_;  // with friction: the partner's torque, per result slot

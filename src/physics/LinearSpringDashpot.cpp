@@ -3,6 +3,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "physics/DampingLimit.hpp"
 #include "physics/HertzMindlin.hpp"
 
 namespace cassini {
@@ -47,6 +48,16 @@ LinearSpringDashpot::LinearSpringDashpot(const Config& cfg, double dt) : n_(stat
     wall_table_.push_back(table_[a * n_ + a]);
     wall_table_.back().mu_s = cfg.species[a].wall_mu_s;
     wall_table_.back().mu_d = cfg.species[a].wall_mu_d;
+  }
+  if (cfg.damping_limit && !hertz_) {
+    auto crowds = [&](const PairLaw& L) {
+      const Stability s = stability(L);
+      return 12 * (s.K + 2 * s.G) > DampingLimit::kBound;
+    };
+    for (const PairLaw& L : table_) damping_limit_ = damping_limit_ || crowds(L);
+    for (const PairLaw& L : wall_table_) damping_limit_ = damping_limit_ || crowds(L);
+    // Bridges laws damp most at the fastest impacts: e -> its floor; take e = 0.05 as the bound.
+    if (velocity_dependent_) damping_limit_ = true;
   }
 }
 

@@ -54,6 +54,7 @@
 #include "core/Config.hpp"
 #include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
+#include "physics/DampingLimit.hpp"
 #include "physics/HertzMindlin.hpp"
 
 namespace cassini {
@@ -186,6 +187,34 @@ class LinearSpringDashpot {
     pick<0>(f, flags);
   }
   double dt() const { return dt_; }
+
+  // A contact's stiffness and damping per step and per reduced mass, K = k dt^2 / m*, G = gamma
+  // dt / m*, as the step sees them (the exact scheme's discrete constants, or Verlet's), the
+  // larger of the normal and the tangential ones (the tangential per its own effective mass
+  // m* / 3.5 of solid spheres, translation and rotation together): DampingLimit's loads.
+  struct Stability {
+    double K, G;
+  };
+  Stability stability(const PairLaw& L) const {
+    const double dt2 = dt_ * dt_;
+    Stability s = exact_ ? Stability{L.k_eff * dt2, L.gamma_eff * dt_} : Stability{L.k_per_mass * dt2, L.gamma_per_mass * dt_};
+    if (friction_ && (L.mu_s > 0 || L.mu_d > 0)) {
+      s.K = std::max(s.K, 3.5 * L.kt_ratio * L.k_per_mass * dt2);
+      s.G = std::max(s.G, 3.5 * L.gammat_ratio * L.gamma_per_mass * dt_);
+    }
+    return s;
+  }
+  // The law with its dashpots (normal and tangential) scaled by s; springs and the exact
+  // scheme's onset and exit forms unchanged.
+  static PairLaw damped(const PairLaw& L, double s) {
+    PairLaw d = L;
+    d.gamma_eff *= s;
+    d.gamma_per_mass *= s;
+    return d;
+  }
+  // Some particle could crowd enough contacts (12, a dense packing's most) to need DampingLimit:
+  // the scene declares its loads. Off for Hertz laws (their stiffness grows with the overlap).
+  bool damping_limit() const { return damping_limit_; }
 
   // The normal law for overlap delta (may be <= 0: a pair that parted this step) and normal
   // velocity vn = vrel . n (< 0 approaching) of the last half step; m: reduced mass; reff:
@@ -382,9 +411,10 @@ class LinearSpringDashpot {
   // roll: the (particle, wall) rolling-resistance torque spring (ParticleStore::wall_roll), or
   // nullptr; its torque joins `torque`. wall_radius: the surface's radius of curvature for Hertz
   // and rolling resistance (a sphere such as the moonlet: R* = a R / (a + R)); 0: flat (R* = a).
+  // damping: DampingLimit's scale for this particle; load (if given): the contact's Stability.
   Vec3 wall_force(const ParticleStore& p, std::size_t i, const Vec3& n, double delta, Vec3* xi, Vec3& torque,
                   bool advance = true, double* shift = nullptr, double* impact = nullptr, Vec3* roll = nullptr,
-                  double wall_radius = 0) const {
+                  double wall_radius = 0, double damping = 1.0, Stability* load = nullptr) const {
     const double a = p.radius[i];
     Vec3 vrel = p.v[i], ft;
     const int sp = p.species[i];
@@ -398,6 +428,12 @@ class LinearSpringDashpot {
       own.mu_d = L->mu_d;
       L = &own;
       if (impact && advance) *impact = delta > 0 ? u : 0.0;
+    }
+    if (load) *load = stability(*L);
+    PairLaw limited;
+    if (damping < 1) {
+      limited = damped(*L, damping);
+      L = &limited;
     }
     if (xi) vrel -= a * p.omega[i].cross(n);
     double overlap_shift = 0;
@@ -430,7 +466,7 @@ class LinearSpringDashpot {
   int n_;
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;
-  bool velocity_dependent_ = false, hertz_ = false, rolling_ = false;
+  bool velocity_dependent_ = false, hertz_ = false, rolling_ = false, damping_limit_ = false;
   RuntimeParts parts_{};  // the flags above, as the law's run-time parts
   std::vector<PairLaw> table_;
   std::vector<PairLaw> wall_table_;  // per species: its own law, with its wall friction

@@ -16,7 +16,9 @@ ModuleKind Moonlet::kind() {
   };
   auto make = [](Simulation& sim) {
     const int slot = sim.claim_wall_slots(1);  // its spring with each particle (friction)
-    return std::make_unique<Moonlet>(sim.cfg, sim.dt, slot);
+    auto moonlet = std::make_unique<Moonlet>(sim.cfg, sim.dt, slot);
+    if (moonlet->law_.damping_limit()) moonlet->limit_ = DampingLimit::attach(sim.particles);
+    return moonlet;
   };
   return {"moonlet", {}, read, make};
 }
@@ -84,7 +86,7 @@ void Moonlet::force(Simulation& sim) {
     const double d = std::sqrt(d2), delta = reach - d;
     const Vec3 normal = Vec3(x, y, z) / d;
     Vec3 move = Vec3::Zero();
-    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_);
+    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_, limit_);
     if (!move.isZero(0)) shifts_.add(i, move);
     if (!touching) continue;
     deepest.see(delta, A[i], p.id[i]);
@@ -141,6 +143,9 @@ void Moonlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const
     if (feels(p, i)) F[i] += p.mass[i] * gravity(p.x[i]);
 }
 
-void Moonlet::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
+void Moonlet::final_integrate(Simulation& sim) {
+  shifts_.apply(sim.particles);
+  limit_.finish_step(sim.particles);
+}
 
 }  // namespace cassini

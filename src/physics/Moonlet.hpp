@@ -26,7 +26,7 @@ class Moonlet : public Module {
   // slot: the moonlet's column in the particles' wall springs (used with friction).
   Moonlet(const Config& cfg, double dt, int slot);
   std::string name() const override { return "moonlet"; }
-  unsigned stages() const override { return kForce | (law_.exact() ? kFinalIntegrate : 0u); }
+  unsigned stages() const override { return kForce | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u); }
   void final_integrate(Simulation& sim) override;
   void force(Simulation& sim) override;
   void wall_forces(const Simulation& sim, std::vector<WallForce>& out) const override;
@@ -58,6 +58,7 @@ class Moonlet : public Module {
   template <class Visit>
   void for_each_touching(const ParticleStore& p, Visit&& visit) const;
   LinearSpringDashpot law_;
+  DampingLimit limit_;
   PendingShifts shifts_;
   double gm_, radius_;
   int dims_;

@@ -20,7 +20,9 @@ std::vector<Plane> domain_walls(const Config& cfg) {
 ModuleKind PlaneWalls::kind() {
   auto make = [](Simulation& sim) {
     const int planes = static_cast<int>(domain_walls(sim.cfg).size());
-    return std::make_unique<PlaneWalls>(sim.cfg, sim.dt, sim.claim_wall_slots(planes));
+    auto walls = std::make_unique<PlaneWalls>(sim.cfg, sim.dt, sim.claim_wall_slots(planes));
+    if (walls->law_.damping_limit()) walls->limit_ = DampingLimit::attach(sim.particles);
+    return walls;
   };
   return {"walls", {}, nullptr, make};
 }
@@ -61,7 +63,8 @@ void PlaneWalls::force(Simulation& sim) {
       if (!(candidates_[i] >> w & 1)) continue;
       const Plane& pl = planes_[w];
       const double delta = a - (p.x[i] - pl.point).dot(pl.normal);
-      if (wall_contact(law_, p, i, pl.normal, delta, wall_springs(p, law_.friction(), i, first_slot_ + w), move))
+      if (wall_contact(law_, p, i, pl.normal, delta, wall_springs(p, law_.friction(), i, first_slot_ + w), move, 0,
+                       limit_))
         deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);
@@ -94,6 +97,9 @@ double PlaneWalls::elastic_energy(const Simulation& sim) const {
   return e;
 }
 
-void PlaneWalls::final_integrate(Simulation& sim) { shifts_.apply(sim.particles); }
+void PlaneWalls::final_integrate(Simulation& sim) {
+  shifts_.apply(sim.particles);
+  limit_.finish_step(sim.particles);
+}
 
 }  // namespace cassini

@@ -22,7 +22,9 @@ class PlaneWalls : public Module {
   static ModuleKind kind();  // the domain faces declared "wall" (added to `modules` by itself)
   PlaneWalls(const Config& cfg, double dt, int first_slot);
   std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
-  unsigned stages() const override { return kForce | kRebuild | (law_.exact() ? kFinalIntegrate : 0u); }
+  unsigned stages() const override {
+    return kForce | kRebuild | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u);
+  }
   void force(Simulation& sim) override;
   void post_rebuild(Simulation& sim) override;
   void final_integrate(Simulation& sim) override;
@@ -35,6 +37,7 @@ class PlaneWalls : public Module {
 
  private:
   LinearSpringDashpot law_;
+  DampingLimit limit_;
   PendingShifts shifts_;
   std::vector<Plane> planes_;
   int first_slot_;  // the first plane's column in the particles' wall springs

@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "core/ParticleStore.hpp"
+#include "physics/DampingLimit.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
 namespace cassini {
@@ -30,9 +31,10 @@ inline WallSprings wall_springs(ParticleStore& p, bool friction, std::size_t i, 
 // overlap delta along n (unit, from the wall to the centre); the exact scheme's end-of-step move
 // goes into `move`. A particle that neither touches now nor touched a step ago gets nothing,
 // and its springs and impact speed are forgotten. Returns true when it touches now.
-// wall_radius: the surface's radius of curvature (the moonlet); 0 for a flat wall.
+// wall_radius: the surface's radius of curvature (the moonlet); 0 for a flat wall. limit: the
+// scene's DampingLimit (off in most scenes): the contact's load and its dashpots' scale.
 inline bool wall_contact(const LinearSpringDashpot& law, ParticleStore& p, std::size_t i, const Vec3& n, double delta,
-                         const WallSprings& s, Vec3& move, double wall_radius = 0) {
+                         const WallSprings& s, Vec3& move, double wall_radius, const DampingLimit& limit) {
   if (delta <= 0) {  // apart now: a new contact starts unloaded
     if (s.xi) s.xi->setZero();
     if (s.roll) s.roll->setZero();
@@ -45,8 +47,12 @@ inline bool wall_contact(const LinearSpringDashpot& law, ParticleStore& p, std::
   Vec3 torque;
   double shift = 0;
   const bool touching = delta > 0;
+  LinearSpringDashpot::Stability load;
+  const bool limit_it = limit.on() && touching;
   p.f[i] += law.wall_force(p, i, n, delta, touching ? s.xi : nullptr, torque, true, &shift, s.impact,
-                           touching ? s.roll : nullptr, wall_radius);
+                           touching ? s.roll : nullptr, wall_radius, limit_it ? limit.scale(p, i) : 1.0,
+                           limit_it ? &load : nullptr);
+  if (limit_it) limit.add(p, i, load.K, load.G, DampingLimit::weight(p.mass[i], 0));
   move += shift * n;
   if (touching && law.friction()) p.torque[i] += torque;
   return touching;

@@ -1,0 +1,92 @@
+#pragma once
+// Many damped contacts on one particle (a held clog, a settled pile, a bead wedged between a
+// channel's floor and ceiling). Each contact alone is stable at any N_c: the exact scheme's
+// constants give a binary contact K = k_eff dt^2 < 4 and G = gamma_eff dt < 1 (per reduced
+// mass). But velocity Verlet with the dashpot on the half-step velocity is stable only while
+// every mode of the whole contact network has K + 2 G < 4, and a particle's contacts add up:
+// with e = 0.1 at N_c = 5 three or four contacts already exceed it. The clogging scene then
+// blows up in a floor-bead-bead-ceiling wedge (docs/clogging.md), and LAMMPS or LIGGGHTS users
+// have to shrink the time step for the densest moment of a run.
+//
+// The limit scales each contact's damping (normal dashpot and tangential dashpot, not the
+// springs) by s_ij = min(s_i, s_j), where particle i's
+//   s_i = min(1, (B - K_i) / (2 G_i)),  K_i = sum w_c K_c,  G_i = sum w_c G_c,
+// over i's contacts c, with K_c and G_c the contact's stiffness and damping per step
+// (LinearSpringDashpot::stability) and w_c = m* (1/m_i + 1/sqrt(m_i m_j)) (1 for a wall; 1 for
+// equal beads). Then every row sum of the step's matrix is at most B < 4 (Gershgorin, in the
+// mass-weighted norm, as Lubrication's many-film scaling): no mode can grow, however many
+// contacts. Where the plain sum was already below B (every binary collision, any dilute
+// gas) s = 1 and the force is bit for bit the unlimited one, so e and t_c of a binary collision
+// stay exact. Only the dashpots of crowded particles lose part of their damping, and only the
+// part no explicit step could have delivered.
+//
+// K_i and G_i come from the previous step (the loads a particle column carries to the ghosts),
+// so both sides of a pair see the same s_ij. Every module that makes contacts (particle pairs,
+// plane walls, the channel, the moonlet) adds its contacts' loads and scales its dashpots; the
+// first of them in the registry's order owns the column and moves this step's loads into it at
+// the end of the step.
+//
+// Force reports (snapshots' contact forces, cassini-cg's stress) show the unlimited dashpot: a
+// packing at rest has no dashpot force, so its stress is the same either way.
+#include <algorithm>
+#include <cmath>
+
+#include "core/ParticleStore.hpp"
+
+namespace cassini {
+
+class DampingLimit {
+ public:
+  static constexpr double kBound = 3.6;  // B: a 10 % margin below the stability edge 4
+
+  DampingLimit() = default;
+  // Declares the particle columns, or finds them when an earlier module declared them; the
+  // declaring module owns them (calls finish_step).
+  static DampingLimit attach(ParticleStore& p) {
+    DampingLimit d;
+    d.on_ = true;
+    const std::size_t found = p.find_column("damping_load");
+    d.owner_ = found == ParticleStore::kNoColumn;
+    d.load_ = d.owner_ ? p.declare("damping_load", 2, true) : found;  // last step's K_i, G_i; ghosts read them
+    d.next_ = d.owner_ ? p.declare("damping_load_next", 2, false) : p.find_column("damping_load_next");
+    return d;
+  }
+  bool on() const { return on_; }
+  bool owner() const { return owner_; }
+
+  // s_i from the loads of the last step (1 for a particle that had no contact).
+  double scale(const ParticleStore& p, std::size_t i) const {
+    const double* l = p.column(load_, i);
+    if (l[0] + 2 * l[1] <= kBound) return 1.0;
+    return std::clamp((kBound - l[0]) / (2 * l[1]), 0.0, 1.0);
+  }
+  // This step's contact of owned particle i: stiffness and damping per step, and its weight.
+  void add(ParticleStore& p, std::size_t i, double K, double G, double weight) const {
+    double* n = p.column(next_, i);
+    n[0] += weight * K;
+    n[1] += weight * G;
+  }
+  // The weight of a contact with a particle of mass mj (w_c above); mj = 0: a wall.
+  static double weight(double mi, double mj) {
+    if (mj == 0) return 1.0;
+    const double m = mi * mj / (mi + mj);
+    return m * (1 / mi + 1 / std::sqrt(mi * mj));
+  }
+  // The owner, at the end of the step: this step's loads become the next step's.
+  void finish_step(ParticleStore& p) const {
+    if (!owner_) return;
+    for (std::size_t i = 0; i < p.nlocal; ++i) {
+      double* l = p.column(load_, i);
+      double* n = p.column(next_, i);
+      l[0] = n[0];
+      l[1] = n[1];
+      n[0] = n[1] = 0;
+    }
+  }
+
+ private:
+  bool on_ = false, owner_ = false;
+  std::size_t load_ = 0, next_ = 0;
+};
+
+}  // namespace cassini
