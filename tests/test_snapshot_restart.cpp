@@ -278,6 +278,38 @@ TEST(Snapshot, TruncatedFileIsReportedNotMisread) {
   }
 }
 
+TEST(Snapshot, ResultsThatDifferByRankAreWrittenAsRankZeroHasThem) {
+  // A module's result may carry per-rank numbers (self-gravity's timings). HDF5 creates
+  // attributes collectively: a string of another length on one rank left the ranks' metadata
+  // caches different, and both hung inside H5Fclose (gravity-wakes after 3 orbits). The
+  // snapshot writes rank 0's results on every rank.
+  const std::string dir = scratch();
+  auto a = make_sim(kScene);
+  a->setup();
+  int rank;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  a->set_result("timing", rank == 0 ? "{\"seconds\": 1.5}" : "{\"seconds\": 12.25}");
+  a->set_result("count", rank == 0 ? "7" : "8");
+  const std::string file = write_snapshot(*a, dir, "# case text");
+  if (rank != 0) return;
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  hid_t attr = H5Aopen_by_name(f, "results", "count", H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(attr, 0);
+  double count = -1;
+  H5Aread(attr, H5T_NATIVE_DOUBLE, &count);
+  H5Aclose(attr);
+  attr = H5Aopen_by_name(f, "results", "timing", H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(attr, 0);
+  hid_t type = H5Aget_type(attr);
+  const std::size_t length = H5Tget_size(type);
+  H5Tclose(type);
+  H5Aclose(attr);
+  H5Fclose(f);
+  EXPECT_EQ(count, 7.0);
+  EXPECT_EQ(length, std::string("{\"seconds\": 1.5}").size() + 1);  // attr_string stores the terminating NUL
+}
+
 TEST(Snapshot, MultiRateRingRestartsBitwiseAtALongStepBoundary) {
   // Snapshots of the multi-rate integrator fall on long-step ends (output steps end a long
   // step), where every particle is synchronised: the restart reclassifies and continues alike.

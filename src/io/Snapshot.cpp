@@ -263,6 +263,27 @@ void write_contacts(hid_t file, const Simulation& sim, hid_t dxpl) {
   vec3_column(cg, "wall_force", wr, walls, &WallForce::force, dxpl);
 }
 
+// The run's results as rank 0 has them. Attributes are created collectively, so every rank
+// must pass the same ones: a module's result may hold per-rank numbers (self-gravity's timings),
+// and a string attribute of a different length on one rank left the ranks in different
+// metadata states, which hung both inside H5Fclose (gravity-wakes, snapshot after 3 orbits).
+std::vector<std::pair<std::string, std::string>> results_of_rank0(const Simulation& sim) {
+  std::string packed;
+  if (sim.domain.rank == 0)
+    for (const auto& [key, json] : sim.results) packed += key + '\0' + json + '\0';
+  long long size = static_cast<long long>(packed.size());
+  MPI_Bcast(&size, 1, MPI_LONG_LONG, 0, sim.domain.comm);
+  packed.resize(static_cast<std::size_t>(size));
+  MPI_Bcast(packed.data(), static_cast<int>(size), MPI_CHAR, 0, sim.domain.comm);
+  std::vector<std::pair<std::string, std::string>> out;
+  for (std::size_t at = 0; at < packed.size();) {
+    const std::size_t key_end = packed.find('\0', at), value_end = packed.find('\0', key_end + 1);
+    out.emplace_back(packed.substr(at, key_end - at), packed.substr(key_end + 1, value_end - key_end - 1));
+    at = value_end + 1;
+  }
+  return out;
+}
+
 // parameters/: run state a restart needs beyond the particles (module counters and timers, the
 // outlet counts), the run's results so far (results/), and what describes the run. The
 // attribute `complete` is the last thing written.
@@ -287,7 +308,7 @@ void write_parameters(hid_t file, const Simulation& sim, const std::string& case
     Handle sg = group(params, "state");
     for (const auto& [key, value] : state) small_dataset(sg, key, H5T_NATIVE_DOUBLE, {1}, &value, dxpl);
     Handle rg = group(file, "results");
-    for (const auto& [key, json] : sim.results) {
+    for (const auto& [key, json] : results_of_rank0(sim)) {
       char* end = nullptr;
       const double v = std::strtod(json.c_str(), &end);
       if (!json.empty() && end == json.c_str() + json.size()) attr_array<double>(rg, key, H5T_NATIVE_DOUBLE, {v});
