@@ -56,7 +56,7 @@ LinearSpringDashpot::LinearSpringDashpot(const Config& cfg, double dt) : n_(stat
     };
     for (const PairLaw& L : table_) damping_limit_ = damping_limit_ || crowds(L);
     for (const PairLaw& L : wall_table_) damping_limit_ = damping_limit_ || crowds(L);
-    // Bridges laws damp most at the fastest impacts: e -> its floor; take e = 0.05 as the bound.
+    // A Bridges law's e falls without bound as impacts get faster: any damping can occur.
     if (velocity_dependent_) damping_limit_ = true;
   }
 }
