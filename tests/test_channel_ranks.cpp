@@ -52,3 +52,8 @@ TEST(ChannelRanks, MetisCellsBalancedEveryRebuildWithLubricationAgreeBitwise) {
   one_vs_two_ranks({"domain.decomposition=\"metis\"", "domain.balance_every=1",
                     "modules=[\"contact\", \"channel\", \"drag\", \"inlet\", \"clog\", \"lubrication\"]"});
 }
+
+TEST(ChannelRanks, PrefilledChannelAgreesBitwise) {
+  // The prefill draws every candidate on every rank alike and each rank adds the beads it owns.
+  one_vs_two_ranks({"inlet.prefill=true"});
+}

@@ -108,6 +108,7 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.inlet_every = f.positive("inlet.every", ch.inlet_length / (4 * ch.mean_velocity));
   ch.inlet_attempts = static_cast<int>(f.integer("inlet.attempts", 200));
   if (ch.inlet_attempts < 1) f.fail("inlet.attempts", "a positive integer");
+  ch.prefill = f.boolean("inlet.prefill", false);
 
   // [clog]
   ch.clog_window = f.positive("clog.window", 1.0);

@@ -43,6 +43,7 @@ struct ChannelConfig {
   double inlet_fraction = 0.2;  // volume fraction kept in the zone
   double inlet_every = 0;       // simulated time between top-ups
   int inlet_attempts = 200;     // random tries per top-up before giving up until the next
+  bool prefill = false;         // the channel starts filled at inlet_fraction from the zone to the neck's exit
 
   // [clog]
   double clog_window = 1.0;     // no passage and no change at the neck for this long = clogged

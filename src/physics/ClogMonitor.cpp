@@ -98,6 +98,7 @@ void ClogMonitor::check(Simulation& sim) {
   }
   MPI_Allreduce(local, global, 3, MPI_LONG, MPI_SUM, sim.domain.comm);
   MPI_Allreduce(MPI_IN_PLACE, &zone, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  approach_phi_ = zone / zone_volume_;
   if (front_time_ < 0 && zone >= ch.front_fraction * ch.inlet_fraction * zone_volume_) {
     front_time_ = sim.time;
     escaped_at_front_ = global[0];

@@ -52,10 +52,12 @@ class ClogMonitor : public Module {
   void setup(Simulation& sim) override;
   void end_of_step(Simulation& sim) override;
   long escapees() const { return escaped_; }
-  // escapees (since the start) and in_neck, as last counted.
+  // escapees (since the start), in_neck and the approach's volume fraction (3 D to D upstream
+  // of the neck: is the suspension arriving at the neck stationary?), as last counted.
   void observables(Simulation&, std::vector<std::pair<std::string, double>>& out) override {
     out.emplace_back("escapees", double(std::max(escaped_, 0L)));
     out.emplace_back("in_neck", double(std::max(in_neck_, 0L)));
+    out.emplace_back("approach_phi", approach_phi_);
   }
   bool clogged() const { return clogged_; }
   double clog_time() const { return last_change_; }
@@ -73,6 +75,7 @@ class ClogMonitor : public Module {
   const Config& cfg_;
   long every_ = 1;
   long escaped_ = 0, in_neck_ = -1;
+  double approach_phi_ = 0;  // solid volume fraction of the approach zone at the last count
   double rest_since_ = -1;  // time since which everything has been at rest (-1: moving)
   const class Inlet* inlet_ = nullptr;
   double last_change_ = 0;

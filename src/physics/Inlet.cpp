@@ -34,7 +34,12 @@ void Inlet::setup(Simulation& sim) {
   if (sim.restart_value("inlet.next_id", v)) next_id_ = static_cast<std::int64_t>(v);
   if (sim.restart_value("inlet.inserted", v)) inserted_ = static_cast<long>(v);
   if (sim.restart_value("inlet.failed_top_ups", v)) short_ = static_cast<long>(v);
-  if (!sim.restored) top_up(sim);
+  if (sim.restored) return;
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
+  // A channel that starts full: the suspension reaches the neck in its stationary state from
+  // the first step, instead of as a front that thickens while the channel fills.
+  if (ch.prefill) fill(sim, ch.inlet_x - 0.5 * ch.inlet_length, ch.neck_x1 - (ch.inlet_x - 0.5 * ch.inlet_length), 0, true);
+  top_up(sim);
 }
 
 void Inlet::end_of_step(Simulation& sim) {
@@ -43,9 +48,14 @@ void Inlet::end_of_step(Simulation& sim) {
 
 void Inlet::top_up(Simulation& sim) {
   const ChannelConfig& ch = cfg_.get<ChannelConfig>();
+  full_ = fill(sim, ch.inlet_x - 0.5 * ch.inlet_length, ch.inlet_length, static_cast<std::uint64_t>(sim.step_count) + 1, false);
+}
+
+bool Inlet::fill(Simulation& sim, double x0, double length, std::uint64_t stream, bool patient) {
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   ParticleStore& p = sim.particles;
   const Species& sp = cfg_.species[cfg_.init_species];
-  const double amax = sp.radius_max, x0 = ch.inlet_x - 0.5 * ch.inlet_length, x1 = x0 + ch.inlet_length;
+  const double amax = sp.radius_max, x1 = x0 + length;
   const double z0 = cfg_.lo[2], z1 = cfg_.hi[2];
 
   // Particles that a candidate could touch, from every rank, in id order.
@@ -68,19 +78,21 @@ void Inlet::top_up(Simulation& sim) {
   double present = 0;
   for (const auto& q : near)
     if (q.x >= x0 && q.x < x1) present += volume(q.a);
-  // Zone volume: the channel's cross-section integrated over the zone (midpoint rule).
+  // Zone volume: the channel's cross-section integrated over the zone (midpoint rule, 64
+  // intervals per insertion-zone length).
+  const int parts = std::max(1, static_cast<int>(std::ceil(length / ch.inlet_length - 1e-9)));
   double zone = 0;
-  for (int k = 0; k < 64; ++k) {
-    const double x = x0 + (k + 0.5) * ch.inlet_length / 64;
-    zone += (geo_.upper_y(x) - geo_.lower_y(x)) * ch.inlet_length / 64;
+  for (int k = 0; k < 64 * parts; ++k) {
+    const double x = x0 + (k + 0.5) * length / (64 * parts);
+    zone += (geo_.upper_y(x) - geo_.lower_y(x)) * length / (64 * parts);
   }
   zone *= z1 - z0;
   const double target = ch.inlet_fraction * zone;
 
-  Random rng(cfg_.seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(sim.step_count) + 1);
+  Random rng(cfg_.seed * 0x9E3779B97F4A7C15ull + stream);
   std::vector<Nearby> added;
   int attempts = 0;
-  full_ = present + 0.5 * volume(sp.radius_min) > target;
+  const bool full = present + 0.5 * volume(sp.radius_min) > target;
   while (attempts < ch.inlet_attempts) {
     const double a = sp.radius_min == sp.radius_max ? sp.radius_min
                                                     : sp.sizes.quantile(sp.radius_min, sp.radius_max, rng.uniform(0.0, 1.0));
@@ -96,9 +108,10 @@ void Inlet::top_up(Simulation& sim) {
     if (!std::all_of(near.begin(), near.end(), clear) || !std::all_of(added.begin(), added.end(), clear)) continue;
     added.push_back({next_id_++, x, y, z, a});
     present += volume(a);
+    if (patient) attempts = 0;  // the prefill gives up only after inlet.attempts failures in a row
   }
   if (attempts >= ch.inlet_attempts) ++short_;
-  if (added.empty()) return;
+  if (added.empty()) return full;
 
   // The owner of each new particle adds it; then every rank rebuilds (collective).
   const StokesDrag* drag = sim.find<StokesDrag>();
@@ -111,6 +124,7 @@ void Inlet::top_up(Simulation& sim) {
   }
   inserted_ += static_cast<long>(added.size());
   sim.rebuild();
+  return full;
 }
 
 }  // namespace cassini

@@ -6,6 +6,7 @@
 // candidates from the case's seed and the step number, and tests them against the same
 // gathered set of nearby particles (sorted by id), so insertion does not depend on the rank
 // count. The outlet is the domain's open x face: particles that leave are removed and counted.
+// inlet.prefill: at the start the channel is filled the same way from the zone to the neck's exit.
 #include "core/Config.hpp"
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
@@ -34,6 +35,11 @@ class Inlet : public Module {
 
  private:
   void top_up(Simulation& sim);
+  // Tops up x0 <= x < x0 + length (the full cross-section) to the inlet's volume fraction, drawing from
+  // random stream `stream` of the case's seed (a top-up's: its step + 1; the prefill's: 0).
+  // Gives up after inlet.attempts candidates, or (patient) after that many failures in a row.
+  // True if it was already there.
+  bool fill(Simulation& sim, double x0, double length, std::uint64_t stream, bool patient);
   const Config& cfg_;
   const ChannelGeometry& geo_;
   long every_ = 1;

@@ -1,0 +1,149 @@
+#!/usr/bin/python3
+"""Is clogging memoryless? The hazard per passing bead, and the stationary <s> (issue 19).
+
+    /usr/bin/python3 scripts/clog_hazard.py ENSEMBLE.csv [more.csv ...] [--bins 0,5,10,20] [--burn-in S0]
+
+Reads ensemble CSVs (cassini --ensemble) and pools their runs. s is counted from the front
+(escapees_after_front; runs whose front never passed are left out, as are runs a guard stopped).
+
+If clogging were a Poisson process in the beads that pass (constant probability p per passing
+bead, the statistics Marin et al. 2018 report), s would be geometric: the hazard h(s) = P(clog
+at the (s+1)-th attempt | s passed) would be flat, and <s> = (1 - p) / p. This prints:
+ - h(s) per bin of s: clogs in the bin over attempts in the bin (passes through it + clogs),
+   with its Poisson error;
+ - the stationary estimate beyond a burn-in of S0 beads (runs that reached S0 enter the count
+   there: left truncation): <s>_stat = passes beyond S0 / clogs beyond S0, the maximum-
+   likelihood estimate of (1 - p)/p for a constant hazard, with a 95 % interval (exact Poisson
+   interval on the number of clogs, chi-square quantiles by Wilson-Hilferty). Runs that ended
+   without a clog (time limit) count with the passes they had: censoring is handled exactly.
+ - Pearson's chi-square of a flat hazard beyond S0 over the bins, and its p-value;
+ - the plain mean of s over runs that clogged (what single runs report) for comparison.
+"""
+import csv
+import math
+import sys
+
+
+def chi2_quantile(k, q):
+    """Wilson-Hilferty: within ~1 % of the exact quantile for k >= 2."""
+    if k <= 0:
+        return 0.0
+    z = math.sqrt(2) * inverse_erf(2 * q - 1)
+    c = 2.0 / (9 * k)
+    return k * max(1 - c + z * math.sqrt(c), 0.0) ** 3
+
+
+def chi2_survival(x, k):
+    if k <= 0:
+        return float("nan")
+    c = 2.0 / (9 * k)
+    z = ((x / k) ** (1.0 / 3) - (1 - c)) / math.sqrt(c)
+    return 0.5 * math.erfc(z / math.sqrt(2))
+
+
+def inverse_erf(y):
+    # Newton on erf(x) = y from a good start (|y| < 1).
+    x = 0.0
+    for _ in range(60):
+        err = math.erf(x) - y
+        x -= err / (2 / math.sqrt(math.pi) * math.exp(-x * x))
+    return x
+
+
+def load(paths):
+    runs = []
+    for path in paths:
+        for r in csv.DictReader(open(path)):
+            if r["ended"].startswith("guard"):
+                continue
+            after = r.get("escapees_after_front", "")
+            if after == "":
+                continue  # the front never passed: nothing stationary to count
+            runs.append((int(float(after)), r["clogged"] == "1"))
+    return runs
+
+
+def attempts_in(runs, a, b):
+    """Passes through [a, b) and clogs at s in [a, b), pooled over runs."""
+    passes = sum(max(0, min(s, b) - a) for s, _ in runs)
+    clogs = sum(1 for s, c in runs if c and a <= s < b)
+    return passes, clogs
+
+
+def stationary(runs, s0):
+    passes, clogs = attempts_in(runs, s0, 10**12)
+    if clogs == 0:
+        # No clog beyond S0: only a lower bound (95 %: fewer than 3.0 expected clogs).
+        return float("inf"), passes / 3.0, float("inf"), passes, clogs
+    lo_rate = chi2_quantile(2 * clogs, 0.025) / 2 / (passes + clogs)
+    hi_rate = chi2_quantile(2 * clogs + 2, 0.975) / 2 / (passes + clogs)
+    return passes / clogs, (1 - hi_rate) / hi_rate, (1 - lo_rate) / lo_rate if lo_rate > 0 else float("inf"), passes, clogs
+
+
+def hazard_table(runs, bins):
+    """(from, to, attempts, clogs) per bin of s that has attempts."""
+    edges = bins + [10**12]
+    rows = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        passes, clogs = attempts_in(runs, a, b)
+        if passes + clogs > 0:
+            rows.append((a, b, passes + clogs, clogs))
+    return rows
+
+
+def flat_hazard(runs, bins, s0):
+    """Pearson's chi^2 of one hazard for every bin from s0 on: (chi2, degrees of freedom, p)."""
+    passes, clogs = attempts_in(runs, s0, 10**12)
+    tail = [(n, c) for a, _, n, c in hazard_table(runs, bins) if a >= s0]
+    if clogs == 0 or len(tail) < 2:
+        return float("nan"), 0, float("nan")
+    p = clogs / (passes + clogs)
+    chi2 = sum((c - p * n) ** 2 / (p * n) for n, c in tail)
+    return chi2, len(tail) - 1, chi2_survival(chi2, len(tail) - 1)
+
+
+def report(runs, bins, s0):
+    clogged = [s for s, c in runs if c]
+    mean = sum(clogged) / len(clogged) if clogged else float("nan")
+    sd = math.sqrt(sum((s - mean) ** 2 for s in clogged) / (len(clogged) - 1)) if len(clogged) > 1 else float("nan")
+    print(f"{len(runs)} runs, {len(clogged)} clogged; mean s of the clogged runs {mean:.2f} +- "
+          f"{sd / math.sqrt(len(clogged)) if len(clogged) > 1 else float('nan'):.2f} (sigma / mean {sd / mean:.2f}; "
+          f"a geometric law has ~1); P(s = 0) {sum(1 for s in clogged if s == 0) / max(len(runs), 1):.3f}")
+    print("\n| s from | to | attempts | clogs | hazard per bead | 1 / hazard |")
+    print("|---|---|---|---|---|---|")
+    for a, b, n, clogs in hazard_table(runs, bins):
+        h = clogs / n
+        print(f"| {a} | {'end' if b == 10**12 else b} | {n} | {clogs} | {h:.4f} +- {math.sqrt(clogs) / n:.4f} | "
+              f"{(1 / h if h > 0 else float('inf')):.1f} |")
+    est, lo, hi, passes, clogs = stationary(runs, s0)
+    print(f"\nbeyond a burn-in of {s0} beads: {clogs} clogs in {passes} passes: stationary <s> = {est:.1f} "
+          f"(95 %: {lo:.1f} - {hi:.1f})")
+    chi2, dof, p = flat_hazard(runs, bins, s0)
+    if dof > 0:
+        print(f"flat hazard beyond {s0}: chi^2 = {chi2:.1f} over {dof} degrees of freedom, p = {p:.3g}")
+
+
+def main():
+    argv = list(sys.argv[1:])
+    bins, s0 = None, 0
+    if "--bins" in argv:
+        k = argv.index("--bins")
+        bins = [int(x) for x in argv[k + 1].split(",")]
+        del argv[k:k + 2]
+    if "--burn-in" in argv:
+        k = argv.index("--burn-in")
+        s0 = int(argv[k + 1])
+        del argv[k:k + 2]
+    if not argv:
+        sys.exit(__doc__)
+    runs = load(argv)
+    if not runs:
+        sys.exit("no runs with a front in " + ", ".join(argv))
+    if bins is None:  # quantiles of s, about 8 bins
+        s = sorted(x for x, _ in runs)
+        bins = sorted({0} | {s[len(s) * k // 8] for k in range(1, 8)})
+    report(runs, sorted(set(bins) | {s0}), s0)
+
+
+if __name__ == "__main__":
+    main()
