@@ -14,11 +14,20 @@ namespace cassini {
 class Random {
  public:
   explicit Random(std::uint64_t seed) : s_(seed ? seed : 0x9E3779B97F4A7C15ull) {}
-  std::uint64_t next() {  // splitmix64
-    std::uint64_t z = (s_ += 0x9E3779B97F4A7C15ull);
+  // Stream `stream` of seed `seed` (e.g. a step's draws): both scrambled, so that no two seeds or
+  // streams share a stretch of the sequence. (splitmix64 steps its state by a constant G, so
+  // Random(seed * G + stream) gives seed + 1 the sequence of seed shifted by one draw.)
+  static Random stream(std::uint64_t seed, std::uint64_t stream) { return Random(scramble(scramble(seed) ^ stream)); }
+  static std::uint64_t scramble(std::uint64_t z) {  // splitmix64's output function: a bijection
+    z += 0x9E3779B97F4A7C15ull;
     z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     return z ^ (z >> 31);
+  }
+  std::uint64_t next() {  // splitmix64
+    const std::uint64_t z = s_;
+    s_ += 0x9E3779B97F4A7C15ull;
+    return scramble(z);
   }
   double uniform() { return (next() >> 11) * 0x1.0p-53; }  // [0, 1)
   double uniform(double a, double b) { return a + (b - a) * uniform(); }

@@ -89,7 +89,7 @@ bool Inlet::fill(Simulation& sim, double x0, double length, std::uint64_t stream
   zone *= z1 - z0;
   const double target = ch.inlet_fraction * zone;
 
-  Random rng(cfg_.seed * 0x9E3779B97F4A7C15ull + stream);
+  Random rng = Random::stream(cfg_.seed, stream);
   std::vector<Nearby> added;
   int attempts = 0;
   const bool full = present + 0.5 * volume(sp.radius_min) > target;
