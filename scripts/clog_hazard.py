@@ -2,6 +2,7 @@
 """Is clogging memoryless? The hazard per passing bead, and the stationary <s> (issue 19).
 
     /usr/bin/python3 scripts/clog_hazard.py ENSEMBLE.csv [more.csv ...] [--bins 0,5,10,20] [--burn-in S0]
+                                            [--time 0,0.3,0.4,0.6,1]
 
 Reads ensemble CSVs (cassini --ensemble) and pools their runs. s is counted from the front
 (escapees_after_front; runs whose front never passed are left out, as are runs a guard stopped).
@@ -17,7 +18,12 @@ at the (s+1)-th attempt | s passed) would be flat, and <s> = (1 - p) / p. This p
    interval on the number of clogs, chi-square quantiles by Wilson-Hilferty). Runs that ended
    without a clog (time limit) count with the passes they had: censoring is handled exactly.
  - Pearson's chi-square of a flat hazard beyond S0 over the bins, and its p-value;
- - the plain mean of s over runs that clogged (what single runs report) for comparison.
+ - the plain mean of s over runs that clogged (what single runs report) for comparison;
+ - with --time: the hazard per second of flow in bins of time since the start (clogs in the bin
+   over the run-seconds at risk in it, exact from clog_time), and per passing bead (the same
+   over the passes in the bin, each run's passes spread evenly between its front and its end:
+   an approximation where the flux changes). A hazard that still rises when the last runs clog
+   means the runs never reached a stationary state: their <s> is that of the transient.
 """
 import csv
 import math
@@ -123,6 +129,32 @@ def report(runs, bins, s0):
         print(f"flat hazard beyond {s0}: chi^2 = {chi2:.1f} over {dof} degrees of freedom, p = {p:.3g}")
 
 
+def time_table(paths, edges):
+    runs = []
+    for path in paths:
+        for r in csv.DictReader(open(path)):
+            if r["ended"].startswith("guard") or r.get("escapees_after_front", "") == "":
+                continue
+            clogged = r["clogged"] == "1"
+            t0 = float(r["front_time"])
+            t1 = float(r["clog_time"]) if clogged else float(r["simulated_time"])
+            runs.append((t0, max(t1, t0), float(r["escapees_after_front"]), clogged))
+    print("\n| t from (s) | to | runs at risk | clogs | hazard per second | passes | hazard per bead | 1 / hazard per bead |")
+    print("|---|---|---|---|---|---|---|---|")
+    for a, b in zip(edges[:-1], edges[1:]):
+        exposure = sum(max(0.0, min(b, t1) - max(a, t0)) for t0, t1, _, _ in runs)
+        at_risk = sum(1 for t0, t1, _, _ in runs if t1 > a and t0 < b)
+        clogs = sum(1 for _, t1, _, c in runs if c and a <= t1 < b)
+        passes = sum(s * max(0.0, min(b, t1) - max(a, t0)) / (t1 - t0) for t0, t1, s, _ in runs if t1 > t0)
+        if at_risk == 0:
+            continue
+        per_s = clogs / exposure if exposure > 0 else float("nan")
+        per_bead = clogs / (passes + clogs) if passes + clogs > 0 else float("nan")
+        print(f"| {a} | {b} | {at_risk} | {clogs} | {per_s:.2f} +- {math.sqrt(clogs) / exposure if exposure > 0 else 0:.2f} | "
+              f"{passes:.0f} | {per_bead:.3f} +- {math.sqrt(clogs) / (passes + clogs) if passes + clogs > 0 else 0:.3f} | "
+              f"{(1 / per_bead if per_bead > 0 else float('inf')):.1f} |")
+
+
 def main():
     argv = list(sys.argv[1:])
     bins, s0 = None, 0
@@ -134,6 +166,11 @@ def main():
         k = argv.index("--burn-in")
         s0 = int(argv[k + 1])
         del argv[k:k + 2]
+    times = None
+    if "--time" in argv:
+        k = argv.index("--time")
+        times = [float(x) for x in argv[k + 1].split(",")]
+        del argv[k:k + 2]
     if not argv:
         sys.exit(__doc__)
     runs = load(argv)
@@ -143,6 +180,8 @@ def main():
         s = sorted(x for x, _ in runs)
         bins = sorted({0} | {s[len(s) * k // 8] for k in range(1, 8)})
     report(runs, sorted(set(bins) | {s0}), s0)
+    if times:
+        time_table(argv, times)
 
 
 if __name__ == "__main__":
