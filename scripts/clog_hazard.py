@@ -2,10 +2,12 @@
 """Is clogging memoryless? The hazard per passing bead, and the stationary <s> (issue 19).
 
     /usr/bin/python3 scripts/clog_hazard.py ENSEMBLE.csv [more.csv ...] [--bins 0,5,10,20] [--burn-in S0]
-                                            [--time 0,0.3,0.4,0.6,1]
+                                            [--time 0,0.3,0.4,0.6,1] [--count]
 
 Reads ensemble CSVs (cassini --ensemble) and pools their runs. s is counted from the front
-(escapees_after_front; runs whose front never passed are left out, as are runs a guard stopped).
+(escapees_after_front), or with --count from clog.count_from (escapees_after_count); runs in
+which counting never started, or that clogged before it did, are left out (left truncation), as
+are runs a guard stopped.
 
 If clogging were a Poisson process in the beads that pass (constant probability p per passing
 bead, the statistics Marin et al. 2018 report), s would be geometric: the hazard h(s) = P(clog
@@ -56,17 +58,26 @@ def inverse_erf(y):
     return x
 
 
-def load(paths):
-    runs = []
+def records(paths, count=False):
+    """(start, end, s, clogged) per run: s counted from the start of counting (the front, or
+    clog.count_from with count=True) to the run's clog (its standstill's start) or its end."""
+    t_key, s_key = ("count_time", "escapees_after_count") if count else ("front_time", "escapees_after_front")
+    out = []
     for path in paths:
         for r in csv.DictReader(open(path)):
-            if r["ended"].startswith("guard"):
-                continue
-            after = r.get("escapees_after_front", "")
-            if after == "":
-                continue  # the front never passed: nothing stationary to count
-            runs.append((int(float(after)), r["clogged"] == "1"))
-    return runs
+            if r["ended"].startswith("guard") or r.get(s_key, "") == "":
+                continue  # stopped by a guard, or counting never started
+            clogged = r["clogged"] == "1"
+            start = float(r[t_key])
+            end = float(r["clog_time"]) if clogged else float(r["simulated_time"])
+            if clogged and end < start:
+                continue  # clogged before counting started (older CSVs still count these as s = 0)
+            out.append((start, end, int(float(r[s_key])), clogged))
+    return out
+
+
+def load(paths, count=False):
+    return [(s, c) for _, _, s, c in records(paths, count)]
 
 
 def attempts_in(runs, a, b):
@@ -129,16 +140,8 @@ def report(runs, bins, s0):
         print(f"flat hazard beyond {s0}: chi^2 = {chi2:.1f} over {dof} degrees of freedom, p = {p:.3g}")
 
 
-def time_table(paths, edges):
-    runs = []
-    for path in paths:
-        for r in csv.DictReader(open(path)):
-            if r["ended"].startswith("guard") or r.get("escapees_after_front", "") == "":
-                continue
-            clogged = r["clogged"] == "1"
-            t0 = float(r["front_time"])
-            t1 = float(r["clog_time"]) if clogged else float(r["simulated_time"])
-            runs.append((t0, max(t1, t0), float(r["escapees_after_front"]), clogged))
+def time_table(paths, edges, count=False):
+    runs = [(t0, max(t1, t0), float(s), c) for t0, t1, s, c in records(paths, count)]
     print("\n| t from (s) | to | runs at risk | clogs | hazard per second | passes | hazard per bead | 1 / hazard per bead |")
     print("|---|---|---|---|---|---|---|---|")
     for a, b in zip(edges[:-1], edges[1:]):
@@ -166,14 +169,16 @@ def main():
         k = argv.index("--burn-in")
         s0 = int(argv[k + 1])
         del argv[k:k + 2]
-    times = None
+    times, count = None, "--count" in argv
+    if count:
+        argv.remove("--count")
     if "--time" in argv:
         k = argv.index("--time")
         times = [float(x) for x in argv[k + 1].split(",")]
         del argv[k:k + 2]
     if not argv:
         sys.exit(__doc__)
-    runs = load(argv)
+    runs = load(argv, count)
     if not runs:
         sys.exit("no runs with a front in " + ", ".join(argv))
     if bins is None:  # quantiles of s, about 8 bins
@@ -181,7 +186,7 @@ def main():
         bins = sorted({0} | {s[len(s) * k // 8] for k in range(1, 8)})
     report(runs, sorted(set(bins) | {s0}), s0)
     if times:
-        time_table(argv, times)
+        time_table(argv, times, count)
 
 
 if __name__ == "__main__":

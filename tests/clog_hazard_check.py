@@ -9,7 +9,8 @@
    p < 0.01.
 2. A rising hazard h(s) = 0.005 (1 + s/4) (runs age, as the clogging runs do): the flat-hazard
    test rejects it (p < 1e-4) and the plain mean of s is far below 1/h(0).
-3. A run stopped by a guard, or whose front never passed, is left out.
+3. A run stopped by a guard, whose front never passed, or that clogged before its front passed
+   (a pile behind an early clog can fill the approach) is left out.
 Seeded: the draws, hence the verdicts, are the same on every machine.
 """
 import csv
@@ -34,7 +35,8 @@ def write(path, runs):
         w = csv.writer(f)
         w.writerow(HEADER)
         for k, (s, clogged, ended, front) in enumerate(runs):
-            w.writerow([k, k + 1, 1.7, int(clogged), s, "", "", "", 0, 0, "0.3" if front else "",
+            end = 0.3 + 0.01 * s  # a steady flux of 100 beads per second from the front on
+            w.writerow([k, k + 1, 1.7, int(clogged), s, end if clogged else "", end, "", 0, 0, "0.3" if front else "",
                         s if front else "", "", "", 0, ended])
 
 
@@ -69,8 +71,10 @@ with tempfile.TemporaryDirectory() as d:
     runs.append((0, False, "time limit", False))         # no front: left out
     path = os.path.join(d, "geometric.csv")
     write(path, runs)
+    with open(path, "a") as f:  # clogged at 0.2 s, before its front passed at 0.3 s: left out
+        f.write("402,403,1.7,1,0,0.2,1.2,,0,0,0.3,0,,,0,clogged\n")
     loaded = ch.load([path])
-    check(len(loaded) == 400, f"guard-stopped and front-less runs left out ({len(loaded)} of 402 kept)")
+    check(len(loaded) == 400, f"guard-stopped, front-less and early-clogged runs left out ({len(loaded)} of 403 kept)")
     truth = (1 - p) / p
     estimates, covered, rejected = [], 0, 0
     for k in range(100):

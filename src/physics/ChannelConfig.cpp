@@ -126,6 +126,8 @@ void read_channel_config(CaseFile& f, Config& c) {
   if (!(ch.backflush >= 0)) f.fail("clog.backflush", "a time >= 0 (s; 0 removes the arch instead)");
   ch.front_fraction = f.number("clog.front_fraction", 0.5);
   if (!(ch.front_fraction > 0 && ch.front_fraction <= 1)) f.fail("clog.front_fraction", "a fraction in (0, 1]");
+  ch.count_from = f.number("clog.count_from", -1.0);
+  if (!(ch.count_from >= 0 || ch.count_from == -1.0)) f.fail("clog.count_from", "a time >= 0 (s)");
 }
 
 }  // namespace cassini

@@ -53,6 +53,7 @@ struct ChannelConfig {
   int avalanches = 10;          // continuous mode: end after this many clogs
   double backflush = 0;         // continuous mode: reverse the flow this long after a clog (0: remove the arch)
   double front_fraction = 0.5;  // the front has passed once the approach holds this x inlet_fraction
+  double count_from = -1;       // >= 0: also count escapees from this time on (the stationary regime)
 };
 
 // Reads the channel tables into cfg.get<ChannelConfig>() (only for scenes with the "channel" module).

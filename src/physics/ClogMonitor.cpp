@@ -37,6 +37,8 @@ void ClogMonitor::setup(Simulation& sim) {
   double v;  // a restart continues where it was
   if (sim.restart_value("clog.front_time", v)) front_time_ = v;
   if (sim.restart_value("clog.escaped_at_front", v)) escaped_at_front_ = std::lround(v);
+  if (sim.restart_value("clog.count_time", v)) count_time_ = v;
+  if (sim.restart_value("clog.escaped_at_count", v)) escaped_at_count_ = std::lround(v);
   if (sim.restart_value("clog.avalanche_start", v)) avalanche_start_ = std::lround(v);
   if (sim.restart_value("clog.resumed_at", v)) resumed_at_ = v;
   if (sim.restart_value("clog.removed", v)) removed_ = std::lround(v);
@@ -62,6 +64,7 @@ void ClogMonitor::setup(Simulation& sim) {
 void ClogMonitor::save_state(std::vector<std::pair<std::string, double>>& out) const {
   out.insert(out.end(), {{"clog.last_change", last_change_}, {"clog.rest_since", rest_since_},
                          {"clog.front_time", front_time_}, {"clog.escaped_at_front", double(escaped_at_front_)},
+                         {"clog.count_time", count_time_}, {"clog.escaped_at_count", double(escaped_at_count_)},
                          {"clog.avalanche_start", double(avalanche_start_)}, {"clog.resumed_at", resumed_at_},
                          {"clog.removed", double(removed_)}, {"clog.avalanches", double(sizes_.size())},
                          {"clog.backflush_until", backflush_until_}, {"clog.longest_pause", longest_pause_}});
@@ -102,6 +105,10 @@ void ClogMonitor::check(Simulation& sim) {
   if (front_time_ < 0 && zone >= ch.front_fraction * ch.inlet_fraction * zone_volume_) {
     front_time_ = sim.time;
     escaped_at_front_ = global[0];
+  }
+  if (count_time_ < 0 && ch.count_from >= 0 && sim.time >= ch.count_from - 0.5 * sim.dt) {  // t sums steps: round
+    count_time_ = sim.time;
+    escaped_at_count_ = global[0];
   }
   if (resuming) {
     avalanche_start_ = global[0];
@@ -191,7 +198,14 @@ void ClogMonitor::publish(Simulation& sim) const {
     return os.str() + "]";
   };
   sim.set_result("front_time", front_time_ >= 0 ? std::to_string(front_time_) : "null");
-  sim.set_result("escapees_after_front", front_time_ >= 0 ? std::to_string(escaped_ - escaped_at_front_) : "null");
+  // A clog whose standstill began before a count started (its pile can fill the approach and
+  // pass the front for it) is not the counted regime's: null, as when the count never started.
+  auto counted = [&](double since) { return since >= 0 && !(clogged_ && last_change_ < since); };
+  sim.set_result("escapees_after_front", counted(front_time_) ? std::to_string(escaped_ - escaped_at_front_) : "null");
+  if (cfg_.get<ChannelConfig>().count_from >= 0) {
+    sim.set_result("count_time", count_time_ >= 0 ? std::to_string(count_time_) : "null");
+    sim.set_result("escapees_after_count", counted(count_time_) ? std::to_string(escaped_ - escaped_at_count_) : "null");
+  }
   if (cfg_.get<ChannelConfig>().continuous) {
     sim.set_result("avalanches", list(sizes_));
     sim.set_result("avalanche_starts", list(starts_));

@@ -84,6 +84,8 @@ class ClogMonitor : public Module {
   double zone_lo_ = 0, zone_hi_ = 0, zone_volume_ = 0;  // the approach zone
   double front_time_ = -1;
   long escaped_at_front_ = 0;
+  double count_time_ = -1;    // clog.count_from: when counting from it began (-1: not yet)
+  long escaped_at_count_ = 0;
   long avalanche_start_ = 0;  // escapees when the flow last resumed
   double resumed_at_ = 0;
   double backflush_until_ = -1;  // the flow runs backwards until then (-1: it does not)
