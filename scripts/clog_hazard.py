@@ -24,7 +24,9 @@ at the (s+1)-th attempt | s passed) would be flat, and <s> = (1 - p) / p. This p
  - with --time: the hazard per second of flow in bins of time since the start (clogs in the bin
    over the run-seconds at risk in it, exact from clog_time), and per passing bead (the same
    over the passes in the bin, each run's passes spread evenly between its front and its end:
-   an approximation where the flux changes). A hazard that still rises when the last runs clog
+   an approximation where the flux changes), and <s> from each bin's start on (passes over clogs
+   from then: the stationary estimate if the hazard is flat from there). A hazard that still
+   rises when the last runs clog
    means the runs never reached a stationary state: their <s> is that of the transient.
 """
 import csv
@@ -142,8 +144,9 @@ def report(runs, bins, s0):
 
 def time_table(paths, edges, count=False):
     runs = [(t0, max(t1, t0), float(s), c) for t0, t1, s, c in records(paths, count)]
-    print("\n| t from (s) | to | runs at risk | clogs | hazard per second | passes | hazard per bead | 1 / hazard per bead |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("\n| t from (s) | to | runs at risk | clogs | hazard per second | passes | hazard per bead | 1 / hazard per bead | "
+          "<s> from t on |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for a, b in zip(edges[:-1], edges[1:]):
         exposure = sum(max(0.0, min(b, t1) - max(a, t0)) for t0, t1, _, _ in runs)
         at_risk = sum(1 for t0, t1, _, _ in runs if t1 > a and t0 < b)
@@ -151,11 +154,15 @@ def time_table(paths, edges, count=False):
         passes = sum(s * max(0.0, min(b, t1) - max(a, t0)) / (t1 - t0) for t0, t1, s, _ in runs if t1 > t0)
         if at_risk == 0:
             continue
+        # Every pass and clog from a on: the stationary estimate if the hazard is flat from there.
+        later_clogs = sum(1 for _, t1, _, c in runs if c and t1 >= a)
+        later = sum(s * max(0.0, t1 - max(a, t0)) / (t1 - t0) for t0, t1, s, _ in runs if t1 > t0)
         per_s = clogs / exposure if exposure > 0 else float("nan")
         per_bead = clogs / (passes + clogs) if passes + clogs > 0 else float("nan")
+        tail = f"{later / later_clogs:.1f} +- {later / later_clogs / math.sqrt(later_clogs):.1f}" if later_clogs else "-"
         print(f"| {a} | {b} | {at_risk} | {clogs} | {per_s:.2f} +- {math.sqrt(clogs) / exposure if exposure > 0 else 0:.2f} | "
               f"{passes:.0f} | {per_bead:.3f} +- {math.sqrt(clogs) / (passes + clogs) if passes + clogs > 0 else 0:.3f} | "
-              f"{(1 / per_bead if per_bead > 0 else float('inf')):.1f} |")
+              f"{(1 / per_bead if per_bead > 0 else float('inf')):.1f} | {tail} |")
 
 
 def main():
