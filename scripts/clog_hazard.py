@@ -132,7 +132,7 @@ def report(runs, bins, s0):
     print("|---|---|---|---|---|---|")
     for a, b, n, clogs in hazard_table(runs, bins):
         h = clogs / n
-        print(f"| {a} | {'end' if b == 10**12 else b} | {n} | {clogs} | {h:.4f} +- {math.sqrt(clogs) / n:.4f} | "
+        print(f"| {a} | {'end' if b == 10**12 else b} | {n} | {clogs} | {h:.3g} +- {math.sqrt(clogs) / n:.2g} | "
               f"{(1 / h if h > 0 else float('inf')):.1f} |")
     est, lo, hi, passes, clogs = stationary(runs, s0)
     print(f"\nbeyond a burn-in of {s0} beads: {clogs} clogs in {passes} passes: stationary <s> = {est:.1f} "
@@ -160,8 +160,8 @@ def time_table(paths, edges, count=False):
         per_s = clogs / exposure if exposure > 0 else float("nan")
         per_bead = clogs / (passes + clogs) if passes + clogs > 0 else float("nan")
         tail = f"{later / later_clogs:.1f} +- {later / later_clogs / math.sqrt(later_clogs):.1f}" if later_clogs else "-"
-        print(f"| {a} | {b} | {at_risk} | {clogs} | {per_s:.2f} +- {math.sqrt(clogs) / exposure if exposure > 0 else 0:.2f} | "
-              f"{passes:.0f} | {per_bead:.3f} +- {math.sqrt(clogs) / (passes + clogs) if passes + clogs > 0 else 0:.3f} | "
+        print(f"| {a} | {b} | {at_risk} | {clogs} | {per_s:.3g} +- {math.sqrt(clogs) / exposure if exposure > 0 else 0:.2g} | "
+              f"{passes:.0f} | {per_bead:.3g} +- {math.sqrt(clogs) / (passes + clogs) if passes + clogs > 0 else 0:.2g} | "
               f"{(1 / per_bead if per_bead > 0 else float('inf')):.1f} | {tail} |")
 
 
