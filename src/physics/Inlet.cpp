@@ -36,8 +36,8 @@ void Inlet::setup(Simulation& sim) {
   if (sim.restart_value("inlet.failed_top_ups", v)) short_ = static_cast<long>(v);
   if (sim.restored) return;
   const ChannelConfig& ch = cfg_.get<ChannelConfig>();
-  // A channel that starts full: the suspension reaches the neck in its stationary state from
-  // the first step, instead of as a front that thickens while the channel fills.
+  // A channel that starts full: beads are at the neck from the first step instead of arriving
+  // as a front. (A random fill is not the flowing suspension's state either: docs/clogging.md.)
   if (ch.prefill) fill(sim, ch.inlet_x - 0.5 * ch.inlet_length, ch.neck_x1 - (ch.inlet_x - 0.5 * ch.inlet_length), 0, true);
   top_up(sim);
 }
