@@ -96,7 +96,7 @@ def stationary(runs, s0):
         return float("inf"), passes / 3.0, float("inf"), passes, clogs
     lo_rate = chi2_quantile(2 * clogs, 0.025) / 2 / (passes + clogs)
     hi_rate = chi2_quantile(2 * clogs + 2, 0.975) / 2 / (passes + clogs)
-    return passes / clogs, (1 - hi_rate) / hi_rate, (1 - lo_rate) / lo_rate if lo_rate > 0 else float("inf"), passes, clogs
+    return passes / clogs, max(0.0, (1 - hi_rate) / hi_rate), (1 - lo_rate) / lo_rate if lo_rate > 0 else float("inf"), passes, clogs
 
 
 def hazard_table(runs, bins):
@@ -126,7 +126,8 @@ def report(runs, bins, s0):
     mean = sum(clogged) / len(clogged) if clogged else float("nan")
     sd = math.sqrt(sum((s - mean) ** 2 for s in clogged) / (len(clogged) - 1)) if len(clogged) > 1 else float("nan")
     print(f"{len(runs)} runs, {len(clogged)} clogged; mean s of the clogged runs {mean:.2f} +- "
-          f"{sd / math.sqrt(len(clogged)) if len(clogged) > 1 else float('nan'):.2f} (sigma / mean {sd / mean:.2f}; "
+          f"{sd / math.sqrt(len(clogged)) if len(clogged) > 1 else float('nan'):.2f} (sigma / mean "
+          f"{sd / mean if mean > 0 else float('nan'):.2f}; "
           f"a geometric law has ~1); P(s = 0) {sum(1 for s in clogged if s == 0) / max(len(runs), 1):.3f}")
     print("\n| s from | to | attempts | clogs | hazard per bead | 1 / hazard |")
     print("|---|---|---|---|---|---|")
