@@ -2,7 +2,7 @@
 """Is clogging memoryless? The hazard per passing bead, and the stationary <s> (issue 19).
 
     /usr/bin/python3 scripts/clog_hazard.py ENSEMBLE.csv [more.csv ...] [--bins 0,5,10,20] [--burn-in S0]
-                                            [--time 0,0.3,0.4,0.6,1] [--count]
+                                            [--time 0,0.3,0.4,0.6,1] [--count | --avalanches K]
 
 Reads ensemble CSVs (cassini --ensemble) and pools their runs. s is counted from the front
 (escapees_after_front), or with --count from clog.count_from (escapees_after_count); runs in
@@ -21,6 +21,10 @@ at the (s+1)-th attempt | s passed) would be flat, and <s> = (1 - p) / p. This p
    without a clog (time limit) count with the passes they had: censoring is handled exactly.
  - Pearson's chi-square of a flat hazard beyond S0 over the bins, and its p-value;
  - the plain mean of s over runs that clogged (what single runs report) for comparison;
+ - with --avalanches K (continuous mode, clog.mode = "continuous"): every counted avalanche from
+   the K-th of its run on is a sample (K = 2 leaves out the first, which starts from the empty
+   channel), timed from its count's start to its clog; a run's open avalanche (the time limit
+   came while it counted) is censored;
  - with --time: the hazard per second of flow in bins of time since the start (clogs in the bin
    over the run-seconds at risk in it, exact from clog_time), and per passing bead (the same
    over the passes in the bin, each run's passes spread evenly between its front and its end:
@@ -60,9 +64,30 @@ def inverse_erf(y):
     return x
 
 
-def records(paths, count=False):
+def avalanche_records(paths, first):
+    """(start, end, s, clogged) per continuous-mode avalanche, from the first-th (1-based) of each
+    run on; the open avalanche of a run that reached its time limit is censored."""
+    out = []
+    for path in paths:
+        for r in csv.DictReader(open(path)):
+            if r["ended"].startswith("guard"):
+                continue
+            sizes = [int(float(x)) for x in r.get("avalanches", "").split()]
+            starts = [float(x) for x in r.get("avalanche_starts", "").split()]
+            clogs = [float(x) for x in (r.get("avalanche_clogs") or "").split()]
+            for k in range(first - 1, len(sizes)):
+                out.append((starts[k], clogs[k] if k < len(clogs) else float("nan"), sizes[k], True))
+            if (r.get("open_avalanche") or "") != "" and len(sizes) + 1 >= first:
+                out.append((float(r["open_avalanche_start"]), float(r["simulated_time"]), int(float(r["open_avalanche"])), False))
+    return out
+
+
+def records(paths, count=False, first=None):
     """(start, end, s, clogged) per run: s counted from the start of counting (the front, or
-    clog.count_from with count=True) to the run's clog (its standstill's start) or its end."""
+    clog.count_from with count=True) to the run's clog (its standstill's start) or its end; with
+    first (continuous mode), per avalanche (avalanche_records)."""
+    if first is not None:
+        return avalanche_records(paths, first)
     t_key, s_key = ("count_time", "escapees_after_count") if count else ("front_time", "escapees_after_front")
     out = []
     for path in paths:
@@ -78,8 +103,8 @@ def records(paths, count=False):
     return out
 
 
-def load(paths, count=False):
-    return [(s, c) for _, _, s, c in records(paths, count)]
+def load(paths, count=False, first=None):
+    return [(s, c) for _, _, s, c in records(paths, count, first)]
 
 
 def attempts_in(runs, a, b):
@@ -121,11 +146,11 @@ def flat_hazard(runs, bins, s0):
     return chi2, len(tail) - 1, chi2_survival(chi2, len(tail) - 1)
 
 
-def report(runs, bins, s0):
+def report(runs, bins, s0, what="runs"):
     clogged = [s for s, c in runs if c]
     mean = sum(clogged) / len(clogged) if clogged else float("nan")
     sd = math.sqrt(sum((s - mean) ** 2 for s in clogged) / (len(clogged) - 1)) if len(clogged) > 1 else float("nan")
-    print(f"{len(runs)} runs, {len(clogged)} clogged; mean s of the clogged runs {mean:.2f} +- "
+    print(f"{len(runs)} {what}, {len(clogged)} clogged; mean s of the clogged runs {mean:.2f} +- "
           f"{sd / math.sqrt(len(clogged)) if len(clogged) > 1 else float('nan'):.2f} (sigma / mean "
           f"{sd / mean if mean > 0 else float('nan'):.2f}; "
           f"a geometric law has ~1); P(s = 0) {sum(1 for s in clogged if s == 0) / max(len(runs), 1):.3f}")
@@ -143,8 +168,12 @@ def report(runs, bins, s0):
         print(f"flat hazard beyond {s0}: chi^2 = {chi2:.1f} over {dof} degrees of freedom, p = {p:.3g}")
 
 
-def time_table(paths, edges, count=False):
-    runs = [(t0, max(t1, t0), float(s), c) for t0, t1, s, c in records(paths, count)]
+def time_table(paths, edges, count=False, first=None):
+    runs = [(t0, max(t1, t0), float(s), c) for t0, t1, s, c in records(paths, count, first)]
+    if first is not None:  # avalanches: time since each count's start
+        if any(math.isnan(t1) for _, t1, _, _ in runs):
+            sys.exit("--time with --avalanches needs the avalanche_clogs column (ensembles from 2026-11-25 on)")
+        runs = [(0.0, t1 - t0, s, c) for t0, t1, s, c in runs]
     print("\n| t from (s) | to | runs at risk | clogs | hazard per second | passes | hazard per bead | 1 / hazard per bead | "
           "<s> from t on |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -184,17 +213,24 @@ def main():
         k = argv.index("--time")
         times = [float(x) for x in argv[k + 1].split(",")]
         del argv[k:k + 2]
+    first = None
+    if "--avalanches" in argv:
+        k = argv.index("--avalanches")
+        first = int(argv[k + 1])
+        del argv[k:k + 2]
+        if count or first < 1:
+            sys.exit("--avalanches K takes K >= 1, and not with --count")
     if not argv:
         sys.exit(__doc__)
-    runs = load(argv, count)
+    runs = load(argv, count, first)
     if not runs:
-        sys.exit("no runs with a front in " + ", ".join(argv))
+        sys.exit(("no avalanches" if first else "no runs with a front") + " in " + ", ".join(argv))
     if bins is None:  # quantiles of s, about 8 bins
         s = sorted(x for x, _ in runs)
         bins = sorted({0} | {s[len(s) * k // 8] for k in range(1, 8)})
-    report(runs, sorted(set(bins) | {s0}), s0)
+    report(runs, sorted(set(bins) | {s0}), s0, "avalanches" if first else "runs")
     if times:
-        time_table(argv, times, count)
+        time_table(argv, times, count, first)
 
 
 if __name__ == "__main__":

@@ -500,6 +500,94 @@ TEST(ClogMonitor, ContinuousModeClearsTheArchAndCountsEachAvalanche) {
               b->avalanches()[1], b->avalanches()[2], b->removed(), a->escapees());
 }
 
+TEST(ClogMonitor, ClearingThePileAndRecoveringCountsOnlyAvalanchesThatStartAfterTheRecovery) {
+  // clog.clear_length removes, at each clog, every bead from that far upstream of the neck to
+  // the escape line (checked at the step of each clearing: the stretch is empty); clog.recover
+  // starts the next avalanche's count that long after the clearing (to the check interval). A
+  // clog whose standstill began before its count started is a recovery clog, not an avalanche:
+  // every counted avalanche after the first has its clog's standstill begin after its start.
+  // Every clog after the first is a real standstill: the escapees, the neck's beads and the
+  // approach's beads were all unchanged over the window before it. (They were not when only
+  // the neck was watched: the first beads to reach an emptied approach made a clog at once,
+  // since nothing had changed at the neck since the clearing; with the whole approach cleared
+  // the run never counted a second avalanche.) The first avalanche is still the single run's,
+  // and every inserted bead is present, escaped or removed.
+  const double R = 0.1;
+  // rest_speed = 0: no early end at rest, so that every clog is a full window's standstill
+  const std::vector<std::string> scene{"clog.window=0.2", "time.end=8.0", "clog.rest_speed=0"};
+  auto single = make_sim(channel_case(), scene);
+  single->setup();
+  single->run();
+  auto more = scene;
+  more.insert(more.end(), {"clog.mode=\"continuous\"", "clog.avalanches=3", "clog.clear_length=3.0e-4", "clog.recover=0.1"});
+  auto sim = make_sim(channel_case(), more);
+  sim->setup();
+  const auto* clog = sim->find<ClogMonitor>();
+  const ChannelConfig& ch = sim->cfg.get<ChannelConfig>();
+  const double L = ch.clear_length, window = ch.clog_window;
+  const double check = std::max(1L, std::lround(window / 1000 / sim->dt)) * sim->dt;
+  const double zone_lo = ch.neck_x0 - 3 * ch.neck_width, neck_lo = ch.neck_x0 - 2 * sim->cfg.max_radius();
+  struct State {
+    double t;
+    long escaped, neck, approach;
+    bool operator==(const State& o) const { return escaped == o.escaped && neck == o.neck && approach == o.approach; }
+  };
+  std::vector<State> states;  // since the last clearing
+  std::vector<double> cleared;  // times of the clearings
+  long removed = 0;
+  std::size_t counted = 0;
+  while (!sim->finished && sim->time < 8.0) {
+    sim->step();
+    if (clog->removed() != removed) {
+      removed = clog->removed();
+      cleared.push_back(sim->time);
+      for (std::size_t i = 0; i < sim->particles.nlocal; ++i) {
+        const double x = sim->particles.x[i][0];
+        EXPECT_FALSE(x > ch.neck_x0 - L && x <= ch.pass_x) << "bead at x = " << x << " after the clearing at t = " << sim->time;
+      }
+      if (cleared.size() > 1) {  // the standstill: unchanged over the window up to the last step
+        ASSERT_FALSE(states.empty());
+        for (const State& s : states)
+          if (s.t > sim->time - window + check) {
+            EXPECT_TRUE(s == states.back()) << "clog confirmed at t = " << sim->time << ", but at t = " << s.t << " escapees "
+                                            << s.escaped << ", neck " << s.neck << ", approach " << s.approach << " (then "
+                                            << states.back().escaped << ", " << states.back().neck << ", " << states.back().approach << ")";
+            if (!(s == states.back())) break;
+          }
+      }
+      states.clear();
+    } else {
+      State s{sim->time, long(sim->halo.removed_upper), 0, 0};
+      for (std::size_t i = 0; i < sim->particles.nlocal; ++i) {
+        const double x = sim->particles.x[i][0];
+        if (x > ch.pass_x) ++s.escaped;
+        else if (x > neck_lo) ++s.neck;
+        else if (x >= zone_lo) ++s.approach;
+      }
+      states.push_back(s);
+    }
+    if (clog->avalanches().size() != counted) {
+      counted = clog->avalanches().size();
+      if (counted > 1) EXPECT_GE(clog->avalanche_clogs().back(), clog->avalanche_starts().back());
+    }
+  }
+  ASSERT_EQ(clog->avalanches().size(), 3u) << "ended at t = " << sim->time << " after " << cleared.size()
+                                           << " clearings, " << clog->recovery_clogs() << " recovery clogs";
+  EXPECT_EQ(clog->avalanches()[0], single->find<ClogMonitor>()->escapees());
+  EXPECT_EQ(long(cleared.size()), long(clog->avalanches().size()) - 1 + clog->recovery_clogs());
+  // Each count after the first began R after some clearing, at the first check from then on.
+  for (std::size_t k = 1; k < clog->avalanche_starts().size(); ++k) {
+    const double t = clog->avalanche_starts()[k];
+    bool found = false;
+    for (double c : cleared) found = found || (t >= c + R - 0.5 * sim->dt && t < c + R + check + 0.5 * sim->dt);
+    EXPECT_TRUE(found) << "avalanche " << k << " began counting at t = " << t;
+  }
+  const auto* inlet = sim->find<Inlet>();
+  EXPECT_EQ(inlet->inserted(), sim->total_particles() + sim->halo.removed_upper + clog->removed());
+  std::printf("avalanches %ld %ld %ld, %ld recovery clogs, %zu clearings, %ld beads removed\n", clog->avalanches()[0],
+              clog->avalanches()[1], clog->avalanches()[2], clog->recovery_clogs(), cleared.size(), clog->removed());
+}
+
 TEST(ClogMonitor, BackflushReversesTheFlowAndResumes) {
   // With clog.backflush the clog is cleared as in the experiments: the flow runs backwards for
   // a while, then forwards. The first avalanche is again the single run's; beads pushed out

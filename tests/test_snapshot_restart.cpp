@@ -270,6 +270,46 @@ TEST(Snapshot, ChannelRestartKeepsInletIdsOutletCountsAndClogTimer) {
   EXPECT_EQ(result_attribute(file, "escapees").number, static_cast<double>(e0));
 }
 
+TEST(Snapshot, ContinuousChannelRestartedDuringARecoveryCountsTheSameAvalanches) {
+  // Continuous mode with a cleared pile and a recovery (clog.clear_length, clog.recover): a
+  // snapshot taken after a clearing, before the next avalanche's count starts, restarts into
+  // the same run: the same beads, avalanches, their start and clog times, and recovery clogs.
+  const std::vector<std::string> over = {"clog.window=0.2",       "clog.rest_speed=0",      "clog.mode=\"continuous\"",
+                                         "clog.avalanches=3",     "clog.clear_length=3.0e-4", "clog.recover=0.1",
+                                         "time.end=8.0"};
+  const std::string dir = scratch();
+  auto a = make_sim(channel_case(), over);
+  a->setup();
+  const auto* ca = a->find<ClogMonitor>();
+  while (ca->removed() == 0 && a->time < 4.0) a->step();
+  ASSERT_GT(ca->removed(), 0) << "no clog to clear";
+  for (int s = 0; s < 200; ++s) a->step();  // inside the 0.1 s recovery (dt = 1e-5 s)
+  ASSERT_EQ(ca->avalanche_starts().size(), 1u) << "the count already resumed: the snapshot would not test a recovery";
+  const std::string file = write_snapshot(*a, dir, "# continuous channel");
+  const double t_snap = a->time;
+  while (!a->finished && a->time < 8.0) a->step();
+  const StateById uninterrupted = gather_state(*a, true);
+
+  auto b = make_sim(channel_case(), over);
+  read_snapshot(*b, file);
+  b->setup();
+  ASSERT_EQ(b->time, t_snap);
+  while (!b->finished && b->time < 8.0) b->step();
+  const StateById restarted = gather_state(*b, true);
+  const auto* cb = b->find<ClogMonitor>();
+  int rank;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank != 0) return;
+  ASSERT_EQ(ca->avalanches().size(), 3u);
+  EXPECT_EQ(a->time, b->time);
+  EXPECT_EQ(differing(uninterrupted, restarted), 0);
+  EXPECT_EQ(ca->avalanches(), cb->avalanches());
+  EXPECT_EQ(ca->avalanche_starts(), cb->avalanche_starts());
+  EXPECT_EQ(ca->avalanche_clogs(), cb->avalanche_clogs());
+  EXPECT_EQ(ca->recovery_clogs(), cb->recovery_clogs());
+  EXPECT_EQ(ca->removed(), cb->removed());
+}
+
 TEST(Snapshot, TruncatedFileIsReportedNotMisread) {
   const std::string dir = scratch();
   auto a = make_sim(kScene);

@@ -34,7 +34,8 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
 
   const std::string header =
       "run,seed,D_over_d,clogged,escapees,clog_time,simulated_time,inserted,max_overlap_over_radius,wall_seconds,"
-      "front_time,escapees_after_front,avalanches,avalanche_starts,longest_pause,ended,count_time,escapees_after_count";
+      "front_time,escapees_after_front,avalanches,avalanche_starts,longest_pause,ended,count_time,escapees_after_count,"
+      "recovery_clogs,open_avalanche,open_avalanche_start,phi_beyond_clear,avalanche_clogs";
   const std::string part = out.dir() + "/ensemble.rank" + std::to_string(rank) + ".csv";
   std::ofstream rows(part);
   rows << header << "\n";
@@ -76,7 +77,9 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
          << "," << result(sim, "escapees") << "," << (ct == "null" ? "" : ct) << "," << sim.time << "," << inserted << ","
          << worst << "," << wall << "," << field("front_time") << "," << field("escapees_after_front") << ","
          << field("avalanches") << "," << field("avalanche_starts") << "," << field("longest_pause") << "," << ended << ","
-         << field("count_time") << "," << field("escapees_after_count") << "\n";
+         << field("count_time") << "," << field("escapees_after_count") << "," << field("recovery_clogs") << ","
+         << field("open_avalanche") << "," << field("open_avalanche_start") << "," << field("phi_beyond_clear") << ","
+         << field("avalanche_clogs") << "\n";
     rows.flush();
     ++done;
     if (rank == 0) {

@@ -26,14 +26,21 @@ void ClogMonitor::setup(Simulation& sim) {
   if (ch.backflush > 0 && !sim.find<StokesDrag>())
     throw ConfigError(cfg_.source + ": key 'clog.backflush': a back-flush reverses the drag's flow; add the \"drag\" module");
   const ChannelGeometry geo(ch);
+  auto volume = [&](double lo, double hi) {
+    const int n = 200;  // midpoint rule over the channel's width (walls are straight pieces)
+    double v = 0;
+    for (int k = 0; k < n; ++k) {
+      const double x = lo + (k + 0.5) * (hi - lo) / n;
+      v += (geo.upper_y(x) - geo.lower_y(x)) * (hi - lo) / n;
+    }
+    return v * (cfg_.hi[2] - cfg_.lo[2]);
+  };
   zone_lo_ = ch.neck_x0 - 3 * ch.neck_width;
   zone_hi_ = ch.neck_x0 - ch.neck_width;
-  const int n = 200;  // midpoint rule over the channel's width (walls are straight pieces)
-  for (int k = 0; k < n; ++k) {
-    const double x = zone_lo_ + (k + 0.5) * (zone_hi_ - zone_lo_) / n;
-    zone_volume_ += (geo.upper_y(x) - geo.lower_y(x)) * (zone_hi_ - zone_lo_) / n;
-  }
-  zone_volume_ *= cfg_.hi[2] - cfg_.lo[2];
+  zone_volume_ = volume(zone_lo_, zone_hi_);
+  beyond_hi_ = ch.neck_x0 - ch.clear_length;
+  beyond_lo_ = beyond_hi_ - ch.neck_width;
+  if (ch.clear_length > 0) beyond_volume_ = volume(beyond_lo_, beyond_hi_);
   double v;  // a restart continues where it was
   if (sim.restart_value("clog.front_time", v)) front_time_ = v;
   if (sim.restart_value("clog.escaped_at_front", v)) escaped_at_front_ = std::lround(v);
@@ -43,17 +50,22 @@ void ClogMonitor::setup(Simulation& sim) {
   if (sim.restart_value("clog.resumed_at", v)) resumed_at_ = v;
   if (sim.restart_value("clog.removed", v)) removed_ = std::lround(v);
   if (sim.restart_value("clog.longest_pause", v)) longest_pause_ = v;
+  if (sim.restart_value("clog.count_at", v)) count_at_ = v;
+  if (sim.restart_value("clog.recovery_clogs", v)) recovery_clogs_ = std::lround(v);
+  if (sim.restart_value("clog.phi_beyond_clear", v)) phi_beyond_clear_ = v;
   if (sim.restart_value("clog.backflush_until", v) && v >= 0) {
     backflush_until_ = v;
     sim.find<StokesDrag>()->set_flow_sign(-1);
   }
   if (sim.restart_value("clog.avalanches", v))
     for (long k = 0; k < std::lround(v); ++k) {
-      double s = 0, t = 0;
+      double s = 0, t = 0, c = 0;
       sim.restart_value("clog.avalanche." + std::to_string(k), s);
       sim.restart_value("clog.avalanche_start." + std::to_string(k), t);
+      sim.restart_value("clog.avalanche_clog." + std::to_string(k), c);
       sizes_.push_back(std::lround(s));
       starts_.push_back(t);
+      clogs_.push_back(c);
     }
   check(sim);
   if (sim.restart_value("clog.last_change", v)) last_change_ = v;
@@ -67,10 +79,13 @@ void ClogMonitor::save_state(std::vector<std::pair<std::string, double>>& out) c
                          {"clog.count_time", count_time_}, {"clog.escaped_at_count", double(escaped_at_count_)},
                          {"clog.avalanche_start", double(avalanche_start_)}, {"clog.resumed_at", resumed_at_},
                          {"clog.removed", double(removed_)}, {"clog.avalanches", double(sizes_.size())},
-                         {"clog.backflush_until", backflush_until_}, {"clog.longest_pause", longest_pause_}});
+                         {"clog.backflush_until", backflush_until_}, {"clog.longest_pause", longest_pause_},
+                         {"clog.count_at", count_at_}, {"clog.recovery_clogs", double(recovery_clogs_)},
+                         {"clog.phi_beyond_clear", phi_beyond_clear_}});
   for (std::size_t k = 0; k < sizes_.size(); ++k) {
     out.emplace_back("clog.avalanche." + std::to_string(k), double(sizes_[k]));
     out.emplace_back("clog.avalanche_start." + std::to_string(k), starts_[k]);
+    out.emplace_back("clog.avalanche_clog." + std::to_string(k), clogs_[k]);
   }
 }
 
@@ -110,20 +125,26 @@ void ClogMonitor::check(Simulation& sim) {
     count_time_ = sim.time;
     escaped_at_count_ = global[0];
   }
-  if (resuming) {
+  if (resuming || (count_at_ >= 0 && sim.time >= count_at_ - 0.5 * sim.dt)) {  // t sums steps: round
     avalanche_start_ = global[0];
     resumed_at_ = sim.time;
+    count_at_ = -1;
   }
-  if (global[0] != escaped_ || global[1] != in_neck_) {
+  // Continuous mode: once an arch has been cleared, the pile behind it can jam again just
+  // upstream of the neck zone; beads anywhere in the approach then count as a standing clog,
+  // and beads entering or leaving it as a change (else the first beads to reach an emptied
+  // approach would look like a standstill that began at the clearing).
+  const bool approach_watched = ch.continuous && !sizes_.empty();
+  const long approach = approach_watched ? global[2] : 0;
+  if (global[0] != escaped_ || global[1] != in_neck_ || approach != in_approach_) {
     // A standstill at an occupied neck that ends: how close it came to counting as a clog.
     if (!resuming && in_neck_ > 0) longest_pause_ = std::max(longest_pause_, sim.time - last_change_);
     escaped_ = global[0];
     in_neck_ = global[1];
+    in_approach_ = approach;
     last_change_ = sim.time;
   }
-  // Continuous mode: once an arch has been cleared, the pile behind it can jam again just
-  // upstream of the neck zone; beads anywhere in the approach then count as a standing clog.
-  const bool occupied = in_neck_ > 0 || (ch.continuous && !sizes_.empty() && global[2] > 0);
+  const bool occupied = in_neck_ > 0 || (approach_watched && global[2] > 0);
   const bool holding = occupied && sim.time > last_change_;
   if (holding && ch.rest_speed > 0 && at_rest(sim)) {
     if (rest_since_ < 0) rest_since_ = sim.time;
@@ -138,10 +159,17 @@ void ClogMonitor::check(Simulation& sim) {
 }
 
 void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   clogged_ = true;
-  sizes_.push_back(escaped_ - avalanche_start_);
-  starts_.push_back(resumed_at_);
-  if (!cfg_.get<ChannelConfig>().continuous || static_cast<int>(sizes_.size()) >= cfg_.get<ChannelConfig>().avalanches) {
+  // A clog whose standstill began before counting resumed (clog.recover) is not an avalanche.
+  if (count_at_ >= 0 || last_change_ < resumed_at_) {
+    ++recovery_clogs_;
+  } else {
+    sizes_.push_back(escaped_ - avalanche_start_);
+    starts_.push_back(resumed_at_);
+    clogs_.push_back(last_change_);
+  }
+  if (!ch.continuous || static_cast<int>(sizes_.size()) >= ch.avalanches) {
     sim.finish(why + (cfg_.get<ChannelConfig>().continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
     return;
   }
@@ -162,8 +190,16 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) lead = std::max(lead, p.x[i][0]);
   MPI_Allreduce(MPI_IN_PLACE, &lead, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
-  const double arch_lo = lead - 2 * cfg_.max_radius();
+  // With clog.clear_length, everything from that far upstream of the neck on (the pile) goes too.
+  const double arch_lo = std::min(lead - 2 * cfg_.max_radius(), ch.clear_length > 0 ? ch.neck_x0 - ch.clear_length : 1e300);
   long gone = 0;
+  double beyond = 0;  // solid volume in the diameter of channel upstream of the cleared stretch
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.x[i][0] >= beyond_lo_ && p.x[i][0] < beyond_hi_) beyond += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius[i], 3);
+  if (ch.clear_length > 0) {
+    MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+    phi_beyond_clear_ = std::max(phi_beyond_clear_, beyond / beyond_volume_);
+  }
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (p.x[i][0] > arch_lo && p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) {
       p.x[i][0] = cfg_.lo[0] - 1.0;
@@ -175,8 +211,14 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   clogged_ = false;
   rest_since_ = -1;
   in_neck_ = -1;
-  last_change_ = resumed_at_ = sim.time;
-  avalanche_start_ = escaped_;
+  in_approach_ = -1;
+  last_change_ = sim.time;
+  if (ch.recover > 0) {
+    count_at_ = sim.time + ch.recover;  // check() starts the count then
+  } else {
+    resumed_at_ = sim.time;
+    avalanche_start_ = escaped_;
+  }
 }
 
 bool ClogMonitor::at_rest(Simulation& sim) const {
@@ -209,7 +251,13 @@ void ClogMonitor::publish(Simulation& sim) const {
   if (cfg_.get<ChannelConfig>().continuous) {
     sim.set_result("avalanches", list(sizes_));
     sim.set_result("avalanche_starts", list(starts_));
+    sim.set_result("avalanche_clogs", list(clogs_));
     sim.set_result("removed_from_neck", std::to_string(removed_));
+    sim.set_result("recovery_clogs", std::to_string(recovery_clogs_));
+    if (cfg_.get<ChannelConfig>().clear_length > 0) sim.set_result("phi_beyond_clear", std::to_string(phi_beyond_clear_));
+    const bool open = !clogged_ && count_at_ < 0 && backflush_until_ < 0 && escaped_ >= 0;
+    sim.set_result("open_avalanche", open ? std::to_string(escaped_ - avalanche_start_) : "null");
+    sim.set_result("open_avalanche_start", open ? std::to_string(resumed_at_) : "null");
   }
   sim.set_result("clogged", clogged_ ? "true" : "false");
   sim.set_result("escapees", std::to_string(escaped_));

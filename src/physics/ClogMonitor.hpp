@@ -19,8 +19,18 @@
 // the clog is cleared as in the experiments instead: the beads past clog.pass_x (escaped,
 // already counted) leave through the outlet, the flow runs backwards for clog.backflush
 // seconds (re-suspending the pile), then forwards again; the next avalanche counts from there.
-// Each clog's avalanche size (escapees since the flow last resumed) and start time go to
-// summary.json; avalanches that start after the front has passed are the stationary ones.
+// Each clog's avalanche size (escapees since the flow last resumed), start time and clog time (its
+// standstill's start) go to summary.json; avalanches that start after the front has passed are the stationary ones.
+// Removing only the arch leaves the beads that were pressed against it at the neck, denser than
+// the flowing suspension, and the next avalanche is short (docs/clogging.md). clog.clear_length
+// also removes every bead up to that far upstream of the neck (the pile), and clog.recover
+// counts the next avalanche only from that long after a clearing, once the flowing suspension
+// has refilled the emptied stretch: a clog whose standstill began before counting resumed is
+// then a recovery clog (recovery_clogs in summary.json), cleared like any other but not an
+// avalanche. open_avalanche: the escapees of an avalanche still counting when the run ended
+// (a censored avalanche), null otherwise. phi_beyond_clear: the largest volume fraction found, at a
+// clearing, in the diameter of channel just upstream of the cleared stretch (a pile longer than
+// clog.clear_length shows up there as ~0.5-0.6; the flowing suspension's is ~0.2).
 //
 // Early end at rest: once a clog holds, the pile behind it grows until it reaches the inlet
 // and then stops dead (kinetic energy ~1e-35 J). A pile at rest under steady drag, with an
@@ -62,6 +72,9 @@ class ClogMonitor : public Module {
   bool clogged() const { return clogged_; }
   double clog_time() const { return last_change_; }
   const std::vector<long>& avalanches() const { return sizes_; }
+  const std::vector<double>& avalanche_starts() const { return starts_; }
+  const std::vector<double>& avalanche_clogs() const { return clogs_; }
+  long recovery_clogs() const { return recovery_clogs_; }
   double front_time() const { return front_time_; }
   double longest_pause() const { return longest_pause_; }
   long removed() const { return removed_; }
@@ -75,6 +88,7 @@ class ClogMonitor : public Module {
   const Config& cfg_;
   long every_ = 1;
   long escaped_ = 0, in_neck_ = -1;
+  long in_approach_ = 0;  // beads between the approach's start and the neck zone, when watched (continuous mode)
   double approach_phi_ = 0;  // solid volume fraction of the approach zone at the last count
   double rest_since_ = -1;  // time since which everything has been at rest (-1: moving)
   const class Inlet* inlet_ = nullptr;
@@ -90,8 +104,14 @@ class ClogMonitor : public Module {
   double resumed_at_ = 0;
   double backflush_until_ = -1;  // the flow runs backwards until then (-1: it does not)
   long removed_ = 0;          // particles removed from the neck (continuous mode)
+  double count_at_ = -1;      // clog.recover: the next avalanche counts from then (-1: counting)
+  long recovery_clogs_ = 0;   // clogs before counting resumed (clog.recover)
+  // The stretch one D long just upstream of the cleared one, and the largest volume fraction it
+  // held at a clearing: a pile reaching beyond clog.clear_length shows up as ~0.5-0.6.
+  double beyond_lo_ = 0, beyond_hi_ = 0, beyond_volume_ = 0, phi_beyond_clear_ = 0;
   std::vector<long> sizes_;
   std::vector<double> starts_;
+  std::vector<double> clogs_;  // when each avalanche's clog began (its standstill's start)
 };
 
 }  // namespace cassini
