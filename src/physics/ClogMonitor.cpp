@@ -132,10 +132,12 @@ void ClogMonitor::check(Simulation& sim) {
   }
   // Continuous mode: once an arch has been cleared, the pile behind it can jam again just
   // upstream of the neck zone; beads anywhere in the approach then count as a standing clog,
-  // and beads entering or leaving it as a change (else the first beads to reach an emptied
-  // approach would look like a standstill that began at the clearing).
+  // and while the neck is empty, beads entering or leaving the approach as a change (else the
+  // first beads to reach an emptied approach would look like a standstill that began at the
+  // clearing). While beads sit in the neck only the neck is watched, as for the first clog: a
+  // pile growing behind an arch does not end its standstill.
   const bool approach_watched = ch.continuous && !sizes_.empty();
-  const long approach = approach_watched ? global[2] : 0;
+  const long approach = approach_watched && global[1] == 0 ? global[2] : -1;
   if (global[0] != escaped_ || global[1] != in_neck_ || approach != in_approach_) {
     // A standstill at an occupied neck that ends: how close it came to counting as a clog.
     if (!resuming && in_neck_ > 0) longest_pause_ = std::max(longest_pause_, sim.time - last_change_);
@@ -211,7 +213,7 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   clogged_ = false;
   rest_since_ = -1;
   in_neck_ = -1;
-  in_approach_ = -1;
+  in_approach_ = -2;
   last_change_ = sim.time;
   if (ch.recover > 0) {
     count_at_ = sim.time + ch.recover;  // check() starts the count then

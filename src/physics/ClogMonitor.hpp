@@ -88,7 +88,8 @@ class ClogMonitor : public Module {
   const Config& cfg_;
   long every_ = 1;
   long escaped_ = 0, in_neck_ = -1;
-  long in_approach_ = 0;  // beads between the approach's start and the neck zone, when watched (continuous mode)
+  long in_approach_ = -1;  // beads between the approach's start and the neck zone when watched (continuous mode,
+                          // empty neck), else -1
   double approach_phi_ = 0;  // solid volume fraction of the approach zone at the last count
   double rest_since_ = -1;  // time since which everything has been at rest (-1: moving)
   const class Inlet* inlet_ = nullptr;
