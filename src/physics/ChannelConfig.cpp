@@ -128,8 +128,10 @@ void read_channel_config(CaseFile& f, Config& c) {
   if (!(ch.clear_length >= 0)) f.fail("clog.clear_length", "a length >= 0 (m; 0 removes only the arch)");
   ch.recover = f.number("clog.recover", 0.0);
   if (!(ch.recover >= 0)) f.fail("clog.recover", "a time >= 0 (s)");
-  if ((ch.clear_length > 0 || ch.recover > 0) && ch.backflush > 0)
-    f.fail(ch.clear_length > 0 ? "clog.clear_length" : "clog.recover", "0 with clog.backflush (a back-flush clears the clog itself)");
+  ch.clear_stalled = f.boolean("clog.clear_stalled", false);
+  if ((ch.clear_length > 0 || ch.recover > 0 || ch.clear_stalled) && ch.backflush > 0)
+    f.fail(ch.clear_length > 0 ? "clog.clear_length" : ch.recover > 0 ? "clog.recover" : "clog.clear_stalled",
+           "0 (false) with clog.backflush (a back-flush clears the clog itself)");
   ch.front_fraction = f.number("clog.front_fraction", 0.5);
   if (!(ch.front_fraction > 0 && ch.front_fraction <= 1)) f.fail("clog.front_fraction", "a fraction in (0, 1]");
   ch.count_from = f.number("clog.count_from", -1.0);

@@ -54,6 +54,7 @@ struct ChannelConfig {
   double backflush = 0;         // continuous mode: reverse the flow this long after a clog (0: remove the arch)
   double clear_length = 0;      // continuous mode: also remove every bead this far upstream of the neck
   double recover = 0;           // continuous mode: the next avalanche counts from this long after a clearing
+  bool clear_stalled = false;   // continuous mode: also remove every bead upstream that has stopped in the flow
   double front_fraction = 0.5;  // the front has passed once the approach holds this x inlet_fraction
   double count_from = -1;       // >= 0: also count escapees from this time on (the stationary regime)
 };

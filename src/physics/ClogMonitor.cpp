@@ -25,22 +25,12 @@ void ClogMonitor::setup(Simulation& sim) {
   const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   if (ch.backflush > 0 && !sim.find<StokesDrag>())
     throw ConfigError(cfg_.source + ": key 'clog.backflush': a back-flush reverses the drag's flow; add the \"drag\" module");
+  if (ch.clear_stalled && !sim.find<StokesDrag>())
+    throw ConfigError(cfg_.source + ": key 'clog.clear_stalled': stalled beads are told by the drag's flow; add the \"drag\" module");
   const ChannelGeometry geo(ch);
-  auto volume = [&](double lo, double hi) {
-    const int n = 200;  // midpoint rule over the channel's width (walls are straight pieces)
-    double v = 0;
-    for (int k = 0; k < n; ++k) {
-      const double x = lo + (k + 0.5) * (hi - lo) / n;
-      v += (geo.upper_y(x) - geo.lower_y(x)) * (hi - lo) / n;
-    }
-    return v * (cfg_.hi[2] - cfg_.lo[2]);
-  };
   zone_lo_ = ch.neck_x0 - 3 * ch.neck_width;
   zone_hi_ = ch.neck_x0 - ch.neck_width;
-  zone_volume_ = volume(zone_lo_, zone_hi_);
-  beyond_hi_ = ch.neck_x0 - ch.clear_length;
-  beyond_lo_ = beyond_hi_ - ch.neck_width;
-  if (ch.clear_length > 0) beyond_volume_ = volume(beyond_lo_, beyond_hi_);
+  zone_volume_ = stretch_volume(geo, zone_lo_, zone_hi_);
   double v;  // a restart continues where it was
   if (sim.restart_value("clog.front_time", v)) front_time_ = v;
   if (sim.restart_value("clog.escaped_at_front", v)) escaped_at_front_ = std::lround(v);
@@ -71,6 +61,16 @@ void ClogMonitor::setup(Simulation& sim) {
   if (sim.restart_value("clog.last_change", v)) last_change_ = v;
   if (sim.restart_value("clog.rest_since", v)) rest_since_ = v;
   publish(sim);
+}
+
+double ClogMonitor::stretch_volume(const ChannelGeometry& geo, double lo, double hi) const {
+  const int n = 200;  // midpoint rule over the channel's width (walls are straight pieces)
+  double v = 0;
+  for (int k = 0; k < n; ++k) {
+    const double x = lo + (k + 0.5) * (hi - lo) / n;
+    v += (geo.upper_y(x) - geo.lower_y(x)) * (hi - lo) / n;
+  }
+  return v * (cfg_.hi[2] - cfg_.lo[2]);
 }
 
 void ClogMonitor::save_state(std::vector<std::pair<std::string, double>>& out) const {
@@ -192,22 +192,38 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) lead = std::max(lead, p.x[i][0]);
   MPI_Allreduce(MPI_IN_PLACE, &lead, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
-  // With clog.clear_length, everything from that far upstream of the neck on (the pile) goes too.
+  // With clog.clear_length, everything from that far upstream of the neck on (the pile) goes too;
+  // with clog.clear_stalled, every bead upstream of the escape line that has (nearly) stopped in
+  // the flow: the jammed pile, however long it grew while the clog was being confirmed.
   const double arch_lo = std::min(lead - 2 * cfg_.max_radius(), ch.clear_length > 0 ? ch.neck_x0 - ch.clear_length : 1e300);
+  const StokesDrag* drag = ch.clear_stalled ? sim.find<StokesDrag>() : nullptr;
+  auto cleared = [&](std::size_t i) {
+    const double x = p.x[i][0];
+    if (x > ch.pass_x) return false;
+    return x > arch_lo || (drag && p.v[i].norm() < kStalled * drag->flow().velocity(p.x[i]).norm());
+  };
+  // How dense the channel is just upstream of what goes (a diameter's stretch): the flowing
+  // suspension's ~0.2, or ~0.5-0.6 where a pile reaches beyond it.
+  double tail = arch_lo;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (cleared(i)) tail = std::min(tail, p.x[i][0]);
+  MPI_Allreduce(MPI_IN_PLACE, &tail, 1, MPI_DOUBLE, MPI_MIN, sim.domain.comm);
+  double beyond = 0;
+  const double beyond_lo = tail - ch.neck_width;
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.x[i][0] >= beyond_lo && p.x[i][0] < tail && !cleared(i)) beyond += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius[i], 3);
+  MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  const ChannelGeometry geo(ch);
+  phi_beyond_clear_ = std::max(phi_beyond_clear_, beyond / stretch_volume(geo, beyond_lo, tail));
   long gone = 0;
-  double beyond = 0;  // solid volume in the diameter of channel upstream of the cleared stretch
+  std::vector<std::size_t> going;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.x[i][0] >= beyond_lo_ && p.x[i][0] < beyond_hi_) beyond += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius[i], 3);
-  if (ch.clear_length > 0) {
-    MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
-    phi_beyond_clear_ = std::max(phi_beyond_clear_, beyond / beyond_volume_);
+    if (cleared(i)) going.push_back(i);
+  for (std::size_t i : going) {
+    p.x[i][0] = cfg_.lo[0] - 1.0;
+    p.v[i] = Vec3::Zero();
+    ++gone;
   }
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.x[i][0] > arch_lo && p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) {
-      p.x[i][0] = cfg_.lo[0] - 1.0;
-      p.v[i] = Vec3::Zero();
-      ++gone;
-    }
   MPI_Allreduce(MPI_IN_PLACE, &gone, 1, MPI_LONG, MPI_SUM, sim.domain.comm);
   removed_ += gone;
   clogged_ = false;
@@ -256,7 +272,7 @@ void ClogMonitor::publish(Simulation& sim) const {
     sim.set_result("avalanche_clogs", list(clogs_));
     sim.set_result("removed_from_neck", std::to_string(removed_));
     sim.set_result("recovery_clogs", std::to_string(recovery_clogs_));
-    if (cfg_.get<ChannelConfig>().clear_length > 0) sim.set_result("phi_beyond_clear", std::to_string(phi_beyond_clear_));
+    if (!sizes_.empty() && cfg_.get<ChannelConfig>().backflush == 0) sim.set_result("phi_beyond_clear", std::to_string(phi_beyond_clear_));
     const bool open = !clogged_ && count_at_ < 0 && backflush_until_ < 0 && escaped_ >= 0;
     sim.set_result("open_avalanche", open ? std::to_string(escaped_ - avalanche_start_) : "null");
     sim.set_result("open_avalanche_start", open ? std::to_string(resumed_at_) : "null");

@@ -28,9 +28,11 @@
 // has refilled the emptied stretch: a clog whose standstill began before counting resumed is
 // then a recovery clog (recovery_clogs in summary.json), cleared like any other but not an
 // avalanche. open_avalanche: the escapees of an avalanche still counting when the run ended
-// (a censored avalanche), null otherwise. phi_beyond_clear: the largest volume fraction found, at a
-// clearing, in the diameter of channel just upstream of the cleared stretch (a pile longer than
-// clog.clear_length shows up there as ~0.5-0.6; the flowing suspension's is ~0.2).
+// (a censored avalanche), null otherwise. A pile can grow longer than any fixed stretch while a
+// clog is confirmed: clog.clear_stalled also removes every bead upstream of the escape line moving
+// slower than a tenth of the fluid at its centre (the jammed pile; flowing beads move with the
+// fluid). phi_beyond_clear: the largest volume fraction found, at a clearing, in the diameter of
+// channel just upstream of the beads cleared (~0.5-0.6: a pile remains; the suspension's is ~0.2).
 //
 // Early end at rest: once a clog holds, the pile behind it grows until it reaches the inlet
 // and then stops dead (kinetic energy ~1e-35 J). A pile at rest under steady drag, with an
@@ -52,6 +54,7 @@
 namespace cassini {
 
 struct Config;
+class ChannelGeometry;
 
 class ClogMonitor : public Module {
  public:
@@ -107,9 +110,13 @@ class ClogMonitor : public Module {
   long removed_ = 0;          // particles removed from the neck (continuous mode)
   double count_at_ = -1;      // clog.recover: the next avalanche counts from then (-1: counting)
   long recovery_clogs_ = 0;   // clogs before counting resumed (clog.recover)
-  // The stretch one D long just upstream of the cleared one, and the largest volume fraction it
-  // held at a clearing: a pile reaching beyond clog.clear_length shows up as ~0.5-0.6.
-  double beyond_lo_ = 0, beyond_hi_ = 0, beyond_volume_ = 0, phi_beyond_clear_ = 0;
+  // The largest volume fraction, at a clearing, of the stretch one D long just upstream of the
+  // beads cleared: a pile reaching beyond what was cleared shows up as ~0.5-0.6.
+  double phi_beyond_clear_ = 0;
+  // clog.clear_stalled: slower than this fraction of the fluid at its centre = stopped in a pile
+  // (the flowing suspension moves with the fluid; a jammed pile is at rest to ~1e-6 of it).
+  static constexpr double kStalled = 0.1;
+  double stretch_volume(const ChannelGeometry& geo, double lo, double hi) const;
   std::vector<long> sizes_;
   std::vector<double> starts_;
   std::vector<double> clogs_;  // when each avalanche's clog began (its standstill's start)
