@@ -604,6 +604,53 @@ TEST(ClogMonitor, ClearingThePileAndRecoveringCountsOnlyAvalanchesThatStartAfter
               lc->avalanches()[2], lc->recovery_clogs());
 }
 
+TEST(ClogMonitor, ClearingStalledBeadsLeavesNoBeadStoppedUpstream) {
+  // clog.clear_stalled: at each clearing every bead upstream of the escape line that moves slower
+  // than a tenth of the fluid at its centre goes, with the arch; right after it, every bead left
+  // upstream moves at least that fast, and the stretch just upstream of what went is not a pile.
+  // The case file's keys are checked: a missing drag module and a back-flush are refused, by key.
+  auto sim = make_sim(channel_case(), {"clog.window=0.1", "clog.rest_speed=0", "time.end=8.0", "clog.mode=\"continuous\"",
+                                       "clog.avalanches=3", "clog.clear_stalled=true"});
+  sim->setup();
+  const auto* clog = sim->find<ClogMonitor>();
+  const auto& flow = sim->find<StokesDrag>()->flow();
+  const double pass_x = sim->cfg.get<ChannelConfig>().pass_x;
+  long removed = 0;
+  int clearings = 0;
+  while (!sim->finished && sim->time < 8.0) {
+    sim->step();
+    if (clog->removed() == removed) continue;
+    removed = clog->removed();
+    ++clearings;
+    const ParticleStore& p = sim->particles;
+    for (std::size_t i = 0; i < p.nlocal; ++i) {
+      if (p.x[i][0] < sim->cfg.lo[0] || p.x[i][0] > pass_x) continue;  // removed, or escaped
+      EXPECT_GE(p.v[i].norm(), 0.1 * flow.velocity(p.x[i]).norm() * (1 - 1e-9))
+          << "a stalled bead at x = " << p.x[i][0] << " survived the clearing at t = " << sim->time;
+    }
+  }
+  ASSERT_GE(clearings, 2);
+  ASSERT_EQ(clog->avalanches().size(), 3u);
+  double phi_beyond = 1;
+  for (const auto& [k, v] : sim->results)
+    if (k == "phi_beyond_clear") phi_beyond = std::stod(v);
+  EXPECT_LT(phi_beyond, 0.4);  // a pile is ~0.5-0.6
+
+  auto refused = [](const std::vector<std::string>& over, const std::string& key) {
+    try {
+      auto s = make_sim(channel_case(R"(["contact", "channel", "inlet", "clog"])"), over);
+      s->setup();
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+      return;
+    }
+    ADD_FAILURE() << key << " was accepted";
+  };
+  refused({"clog.mode=\"continuous\"", "clog.clear_stalled=true"}, "clog.clear_stalled");
+  refused({"clog.mode=\"continuous\"", "clog.backflush=0.1", "clog.clear_length=1e-4"}, "clog.clear_length");
+  refused({"clog.recover=-1"}, "clog.recover");
+}
+
 TEST(ClogMonitor, BackflushReversesTheFlowAndResumes) {
   // With clog.backflush the clog is cleared as in the experiments: the flow runs backwards for
   // a while, then forwards. The first avalanche is again the single run's; beads pushed out

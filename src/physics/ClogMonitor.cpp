@@ -172,15 +172,15 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
     clogs_.push_back(last_change_);
   }
   if (!ch.continuous || static_cast<int>(sizes_.size()) >= ch.avalanches) {
-    sim.finish(why + (cfg_.get<ChannelConfig>().continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
+    sim.finish(why + (ch.continuous ? " (clog " + std::to_string(sizes_.size()) + ")" : ""));
     return;
   }
   ParticleStore& p = sim.particles;
-  if (cfg_.get<ChannelConfig>().backflush > 0) {
+  if (ch.backflush > 0) {
     for (std::size_t i = 0; i < p.nlocal; ++i)
-      if (p.x[i][0] > cfg_.get<ChannelConfig>().pass_x) p.x[i][0] = cfg_.hi[0] + 1.0;  // out through the outlet
+      if (p.x[i][0] > ch.pass_x) p.x[i][0] = cfg_.hi[0] + 1.0;  // out through the outlet
     sim.find<StokesDrag>()->set_flow_sign(-1);
-    backflush_until_ = sim.time + cfg_.get<ChannelConfig>().backflush;
+    backflush_until_ = sim.time + ch.backflush;
     clogged_ = false;
     rest_since_ = -1;
     return;
@@ -190,7 +190,7 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   // rebuild, which their displacement forces; not escapees). The clock and counts restart.
   double lead = -1e300;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.x[i][0] <= cfg_.get<ChannelConfig>().pass_x) lead = std::max(lead, p.x[i][0]);
+    if (p.x[i][0] <= ch.pass_x) lead = std::max(lead, p.x[i][0]);
   MPI_Allreduce(MPI_IN_PLACE, &lead, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
   // With clog.clear_length, everything from that far upstream of the neck on (the pile) goes too;
   // with clog.clear_stalled, every bead upstream of the escape line that has (nearly) stopped in
@@ -202,34 +202,31 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
     if (x > ch.pass_x) return false;
     return x > arch_lo || (drag && p.v[i].norm() < kStalled * drag->flow().velocity(p.x[i]).norm());
   };
+  std::vector<char> goes(p.nlocal);
+  double tail = arch_lo;  // the most upstream bead that goes
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if ((goes[i] = cleared(i))) tail = std::min(tail, p.x[i][0]);
+  MPI_Allreduce(MPI_IN_PLACE, &tail, 1, MPI_DOUBLE, MPI_MIN, sim.domain.comm);
   // How dense the channel is just upstream of what goes (a diameter's stretch): the flowing
   // suspension's ~0.2, or ~0.5-0.6 where a pile reaches beyond it.
-  double tail = arch_lo;
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (cleared(i)) tail = std::min(tail, p.x[i][0]);
-  MPI_Allreduce(MPI_IN_PLACE, &tail, 1, MPI_DOUBLE, MPI_MIN, sim.domain.comm);
   double beyond = 0;
   const double beyond_lo = tail - ch.neck_width;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.x[i][0] >= beyond_lo && p.x[i][0] < tail && !cleared(i)) beyond += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius[i], 3);
+    if (!goes[i] && p.x[i][0] >= beyond_lo && p.x[i][0] < tail) beyond += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius[i], 3);
   MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
-  const ChannelGeometry geo(ch);
-  phi_beyond_clear_ = std::max(phi_beyond_clear_, beyond / stretch_volume(geo, beyond_lo, tail));
+  phi_beyond_clear_ = std::max(phi_beyond_clear_, beyond / stretch_volume(ChannelGeometry(ch), beyond_lo, tail));
   long gone = 0;
-  std::vector<std::size_t> going;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (cleared(i)) going.push_back(i);
-  for (std::size_t i : going) {
-    p.x[i][0] = cfg_.lo[0] - 1.0;
-    p.v[i] = Vec3::Zero();
-    ++gone;
-  }
+    if (goes[i]) {
+      p.x[i][0] = cfg_.lo[0] - 1.0;
+      p.v[i] = Vec3::Zero();
+      ++gone;
+    }
   MPI_Allreduce(MPI_IN_PLACE, &gone, 1, MPI_LONG, MPI_SUM, sim.domain.comm);
   removed_ += gone;
   clogged_ = false;
   rest_since_ = -1;
   in_neck_ = -1;
-  in_approach_ = -2;
   last_change_ = sim.time;
   if (ch.recover > 0) {
     count_at_ = sim.time + ch.recover;  // check() starts the count then
