@@ -1,7 +1,7 @@
 """Drives scripts/bench: identical gas scene in cassini and LAMMPS, medians of repeats."""
 import math, os, re, shutil, statistics, subprocess, sys, tempfile, json
 
-REPEATS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+REPEATS = int(sys.argv[1]) if __name__ == "__main__" and len(sys.argv) > 1 else 3
 STEPS = 1000
 LAMMPS_IN = os.path.abspath(os.path.join(os.path.dirname(__file__), "../../shared/peers/lammps/in.gas"))
 if not os.path.exists(LAMMPS_IN):
@@ -143,4 +143,5 @@ def main():
     print(f"ratio cassini/lammps: {statistics.median(ratios1):.2f}")
 
 
-main()
+if __name__ == "__main__":
+    main()

@@ -247,7 +247,8 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
       const std::int8_t ky = cand[1][iy];
       // (x image, copy) pairs. A sheared image's x moves by the offset, so it may need any x
       // wrap to land near the box.
-      std::int8_t kxs[12], copies[12];
+      std::int8_t kxs[12];
+      std::uint8_t copies[12];
       int nkx = 0;
       auto sheared_wraps = [&](int base, std::uint8_t c) {
         for (int kx = -2; kx <= 2; ++kx) {

@@ -1,0 +1,99 @@
+"""Drives scripts/bench-instructions: instructions executed per step of the granular gas, by
+stage, in cassini and in LAMMPS, counted by valgrind's cachegrind.
+
+Wall times on a shared machine move by 10-20 % from run to run; instruction counts do not move
+at all, so a change to a loop can be judged from one run. Each code runs the scene twice, for
+FIRST and for FIRST + SPAN steps: the difference over SPAN is the cost of a step with set-up,
+start-up and the last output taken out. Instructions are not time (memory stalls and the
+instructions per cycle differ between loops): read them next to scripts/bench's times."""
+import collections, os, re, subprocess, sys, tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench import ENV, LAMMPS_IN, SIZES, case_text, tc  # the same scene as scripts/bench
+
+N = int(sys.argv[1]) if len(sys.argv) > 1 else 50000
+FIRST, SPAN = 100, 200
+BINARY = os.path.abspath("build-x86-64-v3/cassini")
+
+# Stages by function name (first match wins); what matches none is "other".
+STAGES = {
+    "cassini": [
+        ("pair", ["ContactForces::evaluate"]),
+        ("neighbour", ["NeighborList::", "ContactForces::post_rebuild", "ContactForces::build_mirrors",
+                       "ContactForces::springs", "ContactForces::pre_rebuild", "StashKey", "permute_local"]),
+        ("integrate", ["VelocityVerlet::"]),
+        ("comm", ["HaloExchange::", "Decomposition::"]),
+        ("memset/memcpy", ["memset", "memcpy", "memmove"]),
+    ],
+    "LAMMPS": [
+        ("pair", ["LAMMPS_NS::Pair"]),
+        ("neighbour", ["LAMMPS_NS::NPair", "LAMMPS_NS::NBin", "LAMMPS_NS::NStencil", "LAMMPS_NS::Neighbor::",
+                       "LAMMPS_NS::FixNeighHistory"]),
+        ("integrate", ["LAMMPS_NS::FixNVE"]),
+        ("comm", ["LAMMPS_NS::Comm", "LAMMPS_NS::AtomVec", "LAMMPS_NS::Domain::pbc"]),
+        ("memset/memcpy", ["memset", "memcpy", "memmove"]),
+    ],
+}
+ORDER = ["pair", "neighbour", "integrate", "comm", "memset/memcpy", "other", "total"]
+
+
+def by_stage(code, out_file):
+    """Instructions per stage of one cachegrind run."""
+    text = subprocess.run(["cg_annotate", "--show=Ir", "--threshold=0", "--auto=no", out_file],
+                          capture_output=True, text=True, check=True).stdout
+    counts = collections.Counter()
+    for line in text.splitlines():
+        m = re.match(r"^\s*([\d,]+)\s+\(\s*[\d.]+%\)\s+(\S.*)$", line)
+        if not m or "PROGRAM TOTALS" in line:
+            continue
+        ir, name = int(m.group(1).replace(",", "")), m.group(2)
+        stage = next((s for s, keys in STAGES[code] if any(k in name for k in keys)), "other")
+        counts[stage] += ir
+        counts["total"] += ir
+    return counts
+
+
+def cachegrind(command, tmp, tag):
+    out = os.path.join(tmp, f"cg.{tag}")
+    r = subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=no", f"--cachegrind-out-file={out}"] + command,
+                       capture_output=True, text=True, env=ENV)
+    if r.returncode != 0:
+        sys.exit(f"{command[0]} under valgrind failed:\n" + r.stdout[-2000:] + r.stderr[-2000:])
+    return out
+
+
+def cassini(friction, steps, tmp):
+    case = os.path.join(tmp, f"gas_{N}_{friction}")
+    os.makedirs(case, exist_ok=True)
+    with open(os.path.join(case, "case.toml"), "w") as f:
+        f.write(case_text(N, friction))
+    cmd = [BINARY, case, "--set", f"time.end={steps * tc / 50!r}", "--out", os.path.join(tmp, "out"), "--force"]
+    return by_stage("cassini", cachegrind(cmd, tmp, f"c{friction}_{steps}"))
+
+
+def lammps(friction, steps, tmp):
+    nx, ny, nz = SIZES[N]
+    cmd = ["lmp", "-in", LAMMPS_IN, "-log", "none", "-screen", "none", "-var", "nx", str(nx), "-var", "ny", str(ny),
+           "-var", "nz", str(nz), "-var", "friction", str(friction), "-var", "nsteps", str(steps)]
+    return by_stage("LAMMPS", cachegrind(cmd, tmp, f"l{friction}_{steps}"))
+
+
+def main():
+    print(f"granular gas phi = 0.3, N = {N}, 1 rank: instructions per step (cachegrind, steps {FIRST}-{FIRST + SPAN};")
+    print(f"cassini built with -march=x86-64-v3 in build-x86-64-v3, LAMMPS as Debian ships it)")
+    with tempfile.TemporaryDirectory() as tmp:
+        for friction in (0, 1):
+            per_step = {}
+            for name, run in (("cassini", cassini), ("LAMMPS", lammps)):
+                a, b = run(friction, FIRST, tmp), run(friction, FIRST + SPAN, tmp)
+                per_step[name] = {s: (b[s] - a[s]) / SPAN for s in ORDER}
+            print(f"\nmu = {0.5 * friction}")
+            print(f"{'stage':>14} {'cassini':>12} {'LAMMPS':>12} {'LAMMPS/cassini':>15}")
+            for s in ORDER:
+                c, l = per_step["cassini"][s], per_step["LAMMPS"][s]
+                ratio = f"{l / c:.2f}" if c > 0 else "-"
+                print(f"{s:>14} {c:>12.3e} {l:>12.3e} {ratio:>15}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
