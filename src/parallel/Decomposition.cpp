@@ -99,6 +99,7 @@ std::size_t Decomposition::cell_of(const Vec3& x) const {
 
 int Decomposition::owner(const Vec3& x) const {
   if (cells()) return cell_owner[cell_of(x)];
+  if (x[axis] >= cuts[rank] && x[axis] < cuts[rank + 1]) return rank;  // most asks, at every rebuild
   // upper_bound: the slab [cuts[r], cuts[r+1]) containing the coordinate
   const auto it = std::upper_bound(cuts.begin() + 1, cuts.end() - 1, x[axis]);
   return static_cast<int>(it - (cuts.begin() + 1));
@@ -108,6 +109,10 @@ void Decomposition::ranks_near(const Vec3& x, double reach, std::vector<int>& ou
   out.clear();
   if (!cells()) {
     const double ya = x[axis];
+    if (ya - reach >= cuts[rank] && ya + reach < cuts[rank + 1]) {  // deep inside this slab: most asks
+      out.push_back(rank);
+      return;
+    }
     Vec3 a = x, b = x;
     a[axis] = ya - reach;
     b[axis] = ya + reach;

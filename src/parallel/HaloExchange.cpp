@@ -160,6 +160,7 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
     }
     for (int d = 0; d < dom_.dims; ++d) {
       if (dom_.periodic(d)) {
+        if (x[d] >= dom_.lo[d] && x[d] < dom_.hi[d]) continue;  // inside: the wrap below is x - 0
         x[d] -= L[d] * std::floor((x[d] - dom_.lo[d]) / L[d]);
         if (x[d] >= dom_.hi[d]) x[d] = dom_.lo[d];  // round-off at the upper face
       } else if (dom_.boundary[d] == Boundary::Open && (x[d] < dom_.lo[d] || x[d] >= dom_.hi[d])) {
