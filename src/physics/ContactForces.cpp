@@ -117,10 +117,12 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   for (std::size_t t = 0; t < targets.count; ++t) {
     const std::size_t i = targets[t];
     if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up
-    const Vec3 xi = X[i], vi = V[i];
-    const double ai = A[i], mi = M[i];
-    const int si = S[i];
+    // What every entry needs; the rest of the row's particle is read by the contacts that need
+    // it, and its force written only if some entry added to it: most rows of a gas touch nothing.
+    const Vec3 xi = X[i];
+    const double ai = A[i];
     Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
+    bool touched = false, moved = false;
     for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
       const std::uint32_t j = partner[k];
       if (LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
@@ -128,12 +130,16 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         if (!T[k]) continue;
         const MirrorResult& r = OUT[MIRROR[k]];  // a receiving entry holds its pair's result slot
         fsum += r.f;
+        touched = true;
+        const double mi = M[i];
+        const int si = S[i];
         if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
           const Vec3 d = xi - X[j];
           const Vec3 n = d / std::sqrt(d.squaredNorm());
           const double mj = M[j];
           const double m = mi * mj / (mi + mj);
           dsum += (-(m / mi) * r.shift) * n;
+          moved = true;
         }
         if (T[k] == kParted) {  // the exact scheme's exit step: a force, not a contact
           T[k] = 0;
@@ -166,6 +172,9 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
           // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
           // touched at the last evaluation can have parted during the step.
           if (exact) {
+            const Vec3 vi = V[i];
+            const double mi = M[i];
+            const int si = S[i];
             const double r = std::sqrt(r2);
             const Vec3 n = d / r;
             const double mj = M[j];
@@ -176,6 +185,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
               const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
               fsum += f;
               dsum += shift;
+              touched = true;
+              moved |= ns.shift != 0;
               if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
             }
             if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
@@ -201,6 +212,9 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       onsets += onset;
       const bool fresh = !T[k];  // not touching at the last evaluation
       T[k] = 1;
+      const Vec3 vi = V[i];
+      const double mi = M[i];
+      const int si = S[i];
       const double r = std::sqrt(r2);
       const Vec3 n = d / r;
       const double delta = R - r;
@@ -237,9 +251,13 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
       if (rolls) XR[k] = rl.spring;
       fsum += f;
+      touched = true;
       if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
       // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
-      if (shift != 0) dsum += (-(m / mi) * shift) * n;
+      if (shift != 0) {
+        dsum += (-(m / mi) * shift) * n;
+        moved = true;
+      }
       // Lever from i's centre to the contact point, plus rolling resistance: summed before joining
       // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
       // which side evaluates it.
@@ -288,9 +306,11 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         }
       }
     }
-    FORCE[i] += fsum;
-    if (fric) TORQUE[i] += tsum;
-    if (exact && !dsum.isZero(0)) shifts_.add(i, dsum);
+    if (touched) {
+      FORCE[i] += fsum;
+      if (fric) TORQUE[i] += tsum;
+    }
+    if (exact && moved) shifts_.add(i, dsum);
   }
   contacts_ = contacts;
   boundary_work_ += boundary_work;
