@@ -147,14 +147,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         }
         if (fric) tsum += OUT_TORQUE[MIRROR[k]];
         if (limit) add_load(i, j, law_of(si, S[j], k));
-        ++contacts;
-        // The overlap as j's side measured it: x_i - x_j is its difference negated, exactly, so
-        // every operation below gives the same bits (cheaper to redo than to store per pair).
-        const Vec3 d = xi - X[j];
-        const double frac = (ai + A[j] - std::sqrt(d.squaredNorm())) / std::min(ai, A[j]);
-        overlap_sum += frac;
-        if (frac > worst) { worst = frac; worst_id = ID[i]; }
-        continue;
+        continue;  // counted in the diagnostics by the evaluating side
       }
       const std::uint32_t mk = MIRROR[k];  // kNoMirror for a ghost partner
       const Vec3 d = xi - X[j];
@@ -262,10 +255,12 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
       // which side evaluates it.
       if (fric) tsum += rolls ? Vec3((-ai * n).cross(ft) + rl.torque) : Vec3((-ai * n).cross(ft));
-      ++contacts;
+      // The diagnostics, for both owned sides of a pair at once (the same overlap either way).
+      const int sides = mk != kNoMirror ? 2 : 1;
+      contacts += sides;
       const double frac = delta / std::min(ai, A[j]);
-      overlap_sum += frac;
-      if (frac > worst) { worst = frac; worst_id = ID[i]; }
+      overlap_sum += sides * frac;
+      if (frac > worst) { worst = frac; worst_id = std::min(ID[i], ID[j]); }
       if (mk != kNoMirror) {  // j's side: every quantity negated, exactly as j would compute it
         T[mk] = 1;
         // Impact speeds recorded by an independent two-sided evaluation (across a periodic
@@ -392,11 +387,14 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
   const ParticleStore& p = sim.particles;
   contacts_ = 0;
   max_overlap_ = overlap_sum_ = 0;
+  // As force() counts them: each overlapping pair from its evaluating entry, in list order.
   sim.neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
-    ++contacts_;
+    if (c.j < c.i) return;  // an owned pair's receiving entry
+    const int sides = c.j < p.nlocal ? 2 : 1;
+    contacts_ += sides;
     const double frac = c.delta / std::min(p.radius[c.i], p.radius[c.j]);
-    overlap_sum_ += frac;
-    if (frac > max_overlap_) { max_overlap_ = frac; worst_id_ = p.id[c.i]; }
+    overlap_sum_ += sides * frac;
+    if (frac > max_overlap_) { max_overlap_ = frac; worst_id_ = std::min(p.id[c.i], p.id[c.j]); }
   });
 }
 
