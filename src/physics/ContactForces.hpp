@@ -82,7 +82,7 @@ class ContactForces : public Module {
     double shift;  // the exact scheme's overlap shift (0 but at onset and exit steps)
   };
   static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, result in mirrored_
-  template <class Parts>
+  template <bool Plain, class Parts>
   void evaluate(Simulation& sim, const Parts& parts);
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
   bool keeps_history() const { return law_.friction() || law_.velocity_dependent(); }
