@@ -58,6 +58,15 @@ struct Decomposition {
   // Every rank whose region lies within `reach` of x (x may be a periodic image outside the
   // box), ascending, this rank included.
   void ranks_near(const Vec3& x, double reach, std::vector<int>& out) const;
+  // x lies farther than `reach` from every face of the box and from the cuts of this rank's
+  // slab: no other rank and no periodic image can be within reach of it (false under cell
+  // ownership, where the question is not asked this way).
+  bool deep_inside(const Vec3& x, double reach) const {
+    if (cells() || x[axis] - reach < cuts[rank] || x[axis] + reach >= cuts[rank + 1]) return false;
+    for (int d = 0; d < dims; ++d)
+      if (x[d] < lo[d] + reach || x[d] >= hi[d] - reach) return false;
+    return true;
+  }
   // Bounding box of this rank's region (the whole box when it owns nothing).
   void local_box(Vec3& box_lo, Vec3& box_hi) const;
   // Moves the region borders so that every rank holds about the same cost: `x` and `cost`
