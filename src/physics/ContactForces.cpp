@@ -122,199 +122,237 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   // Between the multi-rate integrator's long steps, a free particle's stored state is that of
   // an earlier time: it is skipped (it is woken before it can touch anything).
   const double* LAZY = Plain || sim.lazy_column < 0 ? nullptr : p.module_columns[sim.lazy_column].data.data();
-  for (std::size_t t = 0; t < targets.count; ++t) {
-    const std::size_t i = Plain ? t : targets[t];
-    if (start[i] == start[i + 1]) continue;  // most of a dilute gas: skip the set-up
-    // What every entry needs; the rest of the row's particle is read by the contacts that need
-    // it, and its force written only if some entry added to it: most rows of a gas touch nothing.
-    const Vec3 xi = X[i];
-    const double ai = A[i];
-    Vec3 fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
-    bool touched = false, moved = false;
-    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
-      const std::uint32_t j = partner[k];
-      if (!Plain && LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
-      if (j < i) {  // owned partner, already evaluated from j's side
-        if (!T[k]) continue;
-        const MirrorResult& r = OUT[MIRROR[k]];  // a receiving entry holds its pair's result slot
-        fsum += r.f;
-        touched = true;
-        const double mi = M[i];
-        const int si = S[i];
-        if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
-          const Vec3 d = xi - X[j];
-          const Vec3 n = d / std::sqrt(d.squaredNorm());
-          const double mj = M[j];
-          const double m = mi * mj / (mi + mj);
-          dsum += (-(m / mi) * r.shift) * n;
-          moved = true;
-        }
-        if (T[k] == kParted) {  // the exact scheme's exit step: a force, not a contact
-          T[k] = 0;
-          continue;
-        }
-        if (fric) tsum += OUT_TORQUE[MIRROR[k]];
-        if (limit) add_load(i, j, law_of(si, S[j], k));
-        continue;  // counted in the diagnostics by the evaluating side
-      }
-      const std::uint32_t mk = MIRROR[k];  // kNoMirror for a ghost partner
-      const Vec3 d = xi - X[j];
-      const double r2 = d.squaredNorm(), R = ai + A[j];
-      if (r2 >= R * R) {
-        if (T[k]) {  // contact just ended: forget the spring (writes only on transitions)
-          T[k] = 0;
-          if (fric) XI[k].setZero();
-          if (rolls) XR[k].setZero();
-          if (mk != kNoMirror) {
-            T[mk] = 0;
-            if (fric) XI[mk].setZero();
-            if (rolls) XR[mk].setZero();
-          }
-          // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
-          // touched at the last evaluation can have parted during the step.
-          if (exact) {
-            const Vec3 vi = V[i];
-            const double mi = M[i];
-            const int si = S[i];
-            const double r = std::sqrt(r2);
-            const Vec3 n = d / r;
-            const double mj = M[j];
-            const double m = mi * mj / (mi + mj);
-            const double vn = (vi - V[j]).dot(n);
-            const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, 0.0);
-            if (ns.fn != 0 || ns.shift != 0) {
-              const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
-              fsum += f;
-              dsum += shift;
-              touched = true;
-              moved |= ns.shift != 0;
-              if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
-            }
-            if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
-              const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
-              if (nj.fn != 0 || nj.shift != 0) {
-                T[mk] = kParted;
-                const std::uint32_t slot = claim(mk);  // first: it may move OUT
-                MirrorResult& out = OUT[slot];
-                out.f = -(nj.fn * n);
-                out.shift = nj.shift;
-              }
-            }
-          }
-          if (vdep) {
-            U[k] = 0;
-            if (mk != kNoMirror) U[mk] = 0;
-          }
-        }
-        continue;
-      }
-      // A ghost pair is counted by the lower id, wherever it lives; an owned pair once, here.
-      const bool onset = !T[k] && (mk != kNoMirror || ID[i] < ID[j]);
-      onsets += onset;
-      const bool fresh = !T[k];  // not touching at the last evaluation
-      T[k] = 1;
-      const Vec3 vi = V[i];
-      const double mi = M[i];
-      const int si = S[i];
-      const double r = std::sqrt(r2);
-      const Vec3 n = d / r;
-      const double delta = R - r;
-      const double mj = M[j];
-      const double m = mi * mj / (mi + mj);
-      Vec3 vrel = vi - V[j];
-      // The impact speed u of the free approach (the velocity of the last step). A contact found
-      // touching without a recorded impact (initial overlaps, a snapshot from before impact
-      // speeds were stored) takes its present approach speed.
-      if (vdep && (fresh || U[k] == 0)) U[k] = std::max(-vrel.dot(n), 0.0);
-      const PairLaw& L0 = law_of(si, S[j], k);
-      const double damping = limit ? std::min(limit_.scale(p, i), limit_.scale(p, j)) : 1.0;
-      if (limit) add_load(i, j, L0);
-      const PairLaw& L = damping < 1 ? (limited_law = LinearSpringDashpot::damped(L0, damping)) : L0;
-      if (onset) {
-        const double u = -vrel.dot(n), e = L.e;
-        impact_loss_ += 0.5 * (1 - e * e) * m * u * u;
-        impact_virial_ += ((1 + e) * m * u * R) * (n * n.transpose());
-      }
-      // The lower id's term first: a fused multiply-add rounds the other product, so a fixed
-      // order is what makes the two sides' results exact negatives of each other.
-      if (fric) vrel -= (ID[i] < ID[j] ? ai * W[i] + A[j] * W[j] : A[j] * W[j] + ai * W[i]).cross(n);
-      Vec3 ft;
-      // Springs carried over from an independent two-sided evaluation (across a rank or
-      // periodic boundary before a migration) may differ in the last bits: then j's side is
-      // evaluated on its own spring, as j would.
-      const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k] && (!rolls || XR[mk] == -XR[k]);
-      double shift = 0;
-      const double reff = hertz || rolls ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
-      // Rolling: relative spin and reduced moment of inertia about the contact point (I + m a^2
-      // = 1.4 m a^2 per solid sphere; ghosts carry no inverse inertia).
-      Rolling rl;
-      if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), XR[k]};
-      const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
-      if (rolls) XR[k] = rl.spring;
-      fsum += f;
-      touched = true;
-      if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
-      // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
-      if (shift != 0) {
-        dsum += (-(m / mi) * shift) * n;
-        moved = true;
-      }
-      // Lever from i's centre to the contact point, plus rolling resistance: summed before joining
-      // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
-      // which side evaluates it.
-      if (fric) tsum += rolls ? Vec3((-ai * n).cross(ft) + rl.torque) : Vec3((-ai * n).cross(ft));
-      // The diagnostics, for both owned sides of a pair at once (the same overlap either way).
-      const int sides = mk != kNoMirror ? 2 : 1;
-      contacts += sides;
-      const double frac = delta / std::min(ai, A[j]);
-      overlap_sum += sides * frac;
-      if (frac > worst) { worst = frac; worst_id = std::min(ID[i], ID[j]); }
-      if (mk != kNoMirror) {  // j's side: every quantity negated, exactly as j would compute it
-        T[mk] = 1;
-        // Impact speeds recorded by an independent two-sided evaluation (across a periodic
-        // boundary before a migration; the image's coordinates round differently) may differ
-        // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
-        if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
-        const bool own_law = vdep && U[mk] != U[k];
-        const std::uint32_t slot = claim(mk);  // first: it may move OUT
-        MirrorResult& out = OUT[slot];
-        out.shift = shift;
-        if (!fric && !own_law) {
-          out.f = -f;
-        } else {
-          const Vec3 nj = -n;
-          Vec3 ftj;
-          Vec3 rolling_torque = Vec3::Zero();
-          if (mirror_spring && !own_law) {
-            out.f = -f;
-            ftj = -ft;
-            XI[mk] = -XI[k];
-            if (rolls) {
-              XR[mk] = -XR[k];
-              rolling_torque = -rl.torque;
-            }
-          } else {
-            const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
-                                                          : law_of(S[j], si, mk);
-            Rolling rj;
-            if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
-            out.f = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
-                               rolls ? &rj : nullptr);
-            if (rolls) {
-              XR[mk] = rj.spring;
-              rolling_torque = rj.torque;
-            }
-          }
-          if (fric) OUT_TORQUE[MIRROR[mk]] = (-A[j] * nj).cross(ftj) + rolling_torque;
-        }
+  // Two passes. The first lists the entries with work: in contact now (the same test from
+  // either side of a pair: d negated exactly, the same r^2 and a_i + a_j), or at the last
+  // evaluation (an exit, or a result to read). It has no branches: with ~1.4 entries a row in a
+  // gas and one in eight touching, a single pass mispredicted about one branch per entry (row
+  // ends, evaluating or receiving side, contact or not: cachegrind --branch-sim), which cost
+  // more than its instructions. The second pass runs the contact code on the listed entries,
+  // row by row in list order: every sum is taken in the same order as in a single pass.
+  std::uint32_t* ACTIVE = active_.data();  // one slot per entry (build_mirrors)
+  const std::uint32_t* ROW = row_.data();
+  std::size_t nactive = 0;
+  if constexpr (Plain) {
+    const std::size_t entries = nl.size();
+    for (std::size_t k = 0; k < entries; ++k) {
+      const std::uint32_t i = ROW[k], j = partner[k];
+      const double R = A[i] + A[j];
+      ACTIVE[nactive] = static_cast<std::uint32_t>(k);  // nactive <= k: in bounds
+      nactive += (T[k] != 0) | ((X[i] - X[j]).squaredNorm() < R * R);
+    }
+  } else {
+    for (std::size_t t = 0; t < targets.count; ++t) {
+      const std::size_t i = targets[t];
+      for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
+        const std::uint32_t j = partner[k];
+        if (LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
+        const double R = A[i] + A[j];
+        if (T[k] || (X[i] - X[j]).squaredNorm() < R * R) ACTIVE[nactive++] = k;
       }
     }
+  }
+  // The row being summed: what every entry needs; the rest of the row's particle is read by the
+  // contacts that need it, and its force written only if some entry added to it.
+  std::size_t i = p.nlocal;  // none yet
+  Vec3 xi = Vec3::Zero(), fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
+  double ai = 0;
+  bool touched = false, moved = false;
+  auto end_row = [&] {
     if (touched) {
       FORCE[i] += fsum;
       if (fric) TORQUE[i] += tsum;
     }
     if (exact && moved) shifts_.add(i, dsum);
+  };
+  for (std::size_t a = 0; a < nactive; ++a) {
+    const std::uint32_t k = ACTIVE[a];
+    if (ROW[k] != i) {
+      if (i < p.nlocal) end_row();
+      i = ROW[k];
+      xi = X[i];
+      ai = A[i];
+      fsum.setZero();
+      tsum.setZero();
+      dsum.setZero();
+      touched = moved = false;
+    }
+    const std::uint32_t j = partner[k];
+    if (j < i) {  // owned partner, already evaluated from j's side
+      if (!T[k]) continue;
+      const MirrorResult& r = OUT[MIRROR[k]];  // a receiving entry holds its pair's result slot
+      fsum += r.f;
+      touched = true;
+      const double mi = M[i];
+      const int si = S[i];
+      if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
+        const Vec3 d = xi - X[j];
+        const Vec3 n = d / std::sqrt(d.squaredNorm());
+        const double mj = M[j];
+        const double m = mi * mj / (mi + mj);
+        dsum += (-(m / mi) * r.shift) * n;
+        moved = true;
+      }
+      if (T[k] == kParted) {  // the exact scheme's exit step: a force, not a contact
+        T[k] = 0;
+        continue;
+      }
+      if (fric) tsum += OUT_TORQUE[MIRROR[k]];
+      if (limit) add_load(i, j, law_of(si, S[j], k));
+      continue;  // counted in the diagnostics by the evaluating side
+    }
+    const std::uint32_t mk = MIRROR[k];  // kNoMirror for a ghost partner
+    const Vec3 d = xi - X[j];
+    const double r2 = d.squaredNorm(), R = ai + A[j];
+    if (r2 >= R * R) {
+      if (T[k]) {  // contact just ended: forget the spring (writes only on transitions)
+        T[k] = 0;
+        if (fric) XI[k].setZero();
+        if (rolls) XR[k].setZero();
+        if (mk != kNoMirror) {
+          T[mk] = 0;
+          if (fric) XI[mk].setZero();
+          if (rolls) XR[mk].setZero();
+        }
+        // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
+        // touched at the last evaluation can have parted during the step.
+        if (exact) {
+          const Vec3 vi = V[i];
+          const double mi = M[i];
+          const int si = S[i];
+          const double r = std::sqrt(r2);
+          const Vec3 n = d / r;
+          const double mj = M[j];
+          const double m = mi * mj / (mi + mj);
+          const double vn = (vi - V[j]).dot(n);
+          const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, 0.0);
+          if (ns.fn != 0 || ns.shift != 0) {
+            const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
+            fsum += f;
+            dsum += shift;
+            touched = true;
+            moved |= ns.shift != 0;
+            if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
+          }
+          if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
+            const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
+            if (nj.fn != 0 || nj.shift != 0) {
+              T[mk] = kParted;
+              const std::uint32_t slot = claim(mk);  // first: it may move OUT
+              MirrorResult& out = OUT[slot];
+              out.f = -(nj.fn * n);
+              out.shift = nj.shift;
+            }
+          }
+        }
+        if (vdep) {
+          U[k] = 0;
+          if (mk != kNoMirror) U[mk] = 0;
+        }
+      }
+      continue;
+    }
+    // A ghost pair is counted by the lower id, wherever it lives; an owned pair once, here.
+    const bool onset = !T[k] && (mk != kNoMirror || ID[i] < ID[j]);
+    onsets += onset;
+    const bool fresh = !T[k];  // not touching at the last evaluation
+    T[k] = 1;
+    const Vec3 vi = V[i];
+    const double mi = M[i];
+    const int si = S[i];
+    const double r = std::sqrt(r2);
+    const Vec3 n = d / r;
+    const double delta = R - r;
+    const double mj = M[j];
+    const double m = mi * mj / (mi + mj);
+    Vec3 vrel = vi - V[j];
+    // The impact speed u of the free approach (the velocity of the last step). A contact found
+    // touching without a recorded impact (initial overlaps, a snapshot from before impact
+    // speeds were stored) takes its present approach speed.
+    if (vdep && (fresh || U[k] == 0)) U[k] = std::max(-vrel.dot(n), 0.0);
+    const PairLaw& L0 = law_of(si, S[j], k);
+    const double damping = limit ? std::min(limit_.scale(p, i), limit_.scale(p, j)) : 1.0;
+    if (limit) add_load(i, j, L0);
+    const PairLaw& L = damping < 1 ? (limited_law = LinearSpringDashpot::damped(L0, damping)) : L0;
+    if (onset) {
+      const double u = -vrel.dot(n), e = L.e;
+      impact_loss_ += 0.5 * (1 - e * e) * m * u * u;
+      impact_virial_ += ((1 + e) * m * u * R) * (n * n.transpose());
+    }
+    // The lower id's term first: a fused multiply-add rounds the other product, so a fixed
+    // order is what makes the two sides' results exact negatives of each other.
+    if (fric) vrel -= (ID[i] < ID[j] ? ai * W[i] + A[j] * W[j] : A[j] * W[j] + ai * W[i]).cross(n);
+    Vec3 ft;
+    // Springs carried over from an independent two-sided evaluation (across a rank or
+    // periodic boundary before a migration) may differ in the last bits: then j's side is
+    // evaluated on its own spring, as j would.
+    const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k] && (!rolls || XR[mk] == -XR[k]);
+    double shift = 0;
+    const double reff = hertz || rolls ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
+    // Rolling: relative spin and reduced moment of inertia about the contact point (I + m a^2
+    // = 1.4 m a^2 per solid sphere; ghosts carry no inverse inertia).
+    Rolling rl;
+    if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), XR[k]};
+    const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
+    if (rolls) XR[k] = rl.spring;
+    fsum += f;
+    touched = true;
+    if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
+    // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
+    if (shift != 0) {
+      dsum += (-(m / mi) * shift) * n;
+      moved = true;
+    }
+    // Lever from i's centre to the contact point, plus rolling resistance: summed before joining
+    // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
+    // which side evaluates it.
+    if (fric) tsum += rolls ? Vec3((-ai * n).cross(ft) + rl.torque) : Vec3((-ai * n).cross(ft));
+    // The diagnostics, for both owned sides of a pair at once (the same overlap either way).
+    const int sides = mk != kNoMirror ? 2 : 1;
+    contacts += sides;
+    const double frac = delta / std::min(ai, A[j]);
+    overlap_sum += sides * frac;
+    if (frac > worst) { worst = frac; worst_id = std::min(ID[i], ID[j]); }
+    if (mk != kNoMirror) {  // j's side: every quantity negated, exactly as j would compute it
+      T[mk] = 1;
+      // Impact speeds recorded by an independent two-sided evaluation (across a periodic
+      // boundary before a migration; the image's coordinates round differently) may differ
+      // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
+      if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
+      const bool own_law = vdep && U[mk] != U[k];
+      const std::uint32_t slot = claim(mk);  // first: it may move OUT
+      MirrorResult& out = OUT[slot];
+      out.shift = shift;
+      if (!fric && !own_law) {
+        out.f = -f;
+      } else {
+        const Vec3 nj = -n;
+        Vec3 ftj;
+        Vec3 rolling_torque = Vec3::Zero();
+        if (mirror_spring && !own_law) {
+          out.f = -f;
+          ftj = -ft;
+          XI[mk] = -XI[k];
+          if (rolls) {
+            XR[mk] = -XR[k];
+            rolling_torque = -rl.torque;
+          }
+        } else {
+          const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
+                                                        : law_of(S[j], si, mk);
+          Rolling rj;
+          if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
+          out.f = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
+                             rolls ? &rj : nullptr);
+          if (rolls) {
+            XR[mk] = rj.spring;
+            rolling_torque = rj.torque;
+          }
+        }
+        if (fric) OUT_TORQUE[MIRROR[mk]] = (-A[j] * nj).cross(ftj) + rolling_torque;
+      }
+    }
   }
+  if (i < p.nlocal) end_row();
   contacts_ = contacts;
   boundary_work_ += boundary_work;
   overlap_sum_ = overlap_sum;
@@ -409,6 +447,10 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   refill(mirror_, nl.size(), kNoMirror);
+  refill(row_, nl.size(), 0u);
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    std::fill(row_.begin() + nl.start[i], row_.begin() + nl.start[i + 1], static_cast<std::uint32_t>(i));
+  if (active_.size() != nl.size()) refill(active_, nl.size(), 0u);
   nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
