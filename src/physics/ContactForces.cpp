@@ -130,7 +130,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   // more than its instructions. The second pass runs the contact code on the listed entries,
   // row by row in list order: every sum is taken in the same order as in a single pass.
   std::uint32_t* ACTIVE = active_.data();  // one slot per entry (build_mirrors)
-  const std::uint32_t* ROW = row_.data();
+  const std::uint32_t* ROW = nl.row.data();
   std::size_t nactive = 0;
   if constexpr (Plain) {
     const std::size_t entries = nl.size();
@@ -389,7 +389,7 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
   const bool fric = law_.friction() && xi_.size() == nl.size();
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
   const bool rolls = law_.rolling() && roll_.size() == nl.size();
-  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+  nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
     const double u = vdep ? impact_[k] : 0.0;
     if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[i], p.id[j], xi, u, roll});
@@ -447,11 +447,8 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   refill(mirror_, nl.size(), kNoMirror);
-  refill(row_, nl.size(), 0u);
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    std::fill(row_.begin() + nl.start[i], row_.begin() + nl.start[i + 1], static_cast<std::uint32_t>(i));
   if (active_.size() != nl.size()) refill(active_, nl.size(), 0u);
-  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+  nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
       if (nl.partner[q] == i) {
@@ -475,7 +472,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
   build_mirrors(p, nl);
   // Pairs already touching across a rebuild are not new collisions.
   refill(touching_, nl.size(), 0);
-  nl.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+  nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j < i) return;  // an owned pair: set from its lower slot, below
     const double R = p.radius[i] + p.radius[j];
     const Vec3 d = p.x[i] - p.x[j];

@@ -92,7 +92,6 @@ class ContactForces : public Module {
   LinearSpringDashpot law_;
   DampingLimit limit_;  // on when a crowded particle could need it (LinearSpringDashpot::damping_limit)
   std::vector<std::uint32_t> mirror_;
-  std::vector<std::uint32_t> row_;     // per entry: the particle whose list holds it
   std::vector<std::uint32_t> active_;  // force(): the entries with work this step
   std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> mirrored_torque_;  // with friction: the partner's torque, per result slot

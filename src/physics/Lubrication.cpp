@@ -64,7 +64,7 @@ void Lubrication::force(Simulation& sim) {
   long active = 0;
   next_.assign(p.nlocal, 0.0);
   film_.assign(p.nlocal, Vec3::Zero());  // each bead's films summed in list order, then added to its force
-  sim.neighbors.for_each_pair(p.nlocal, [&](std::size_t i, std::uint32_t j, std::uint32_t) {
+  sim.neighbors.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t) {
     const Vec3 d = p.x[i] - p.x[j];
     const double mi = p.mass[i], mj = p.mass[j];
     const double r = d.norm(), c = relaxation(r, p.radius[i], p.radius[j], mi, mj);
