@@ -165,14 +165,19 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   }
   for (std::size_t i = 0; i < p.nlocal; ++i) start[i + 1] += start[i];
   partner.resize(start[p.nlocal]);
-  row.resize(start[p.nlocal]);
   fill_.assign(start.begin(), start.end() - 1);
   for (const auto& [i, j] : pairs_) {
     if (i < nlocal) partner[fill_[i]++] = j;
     if (j < nlocal) partner[fill_[j]++] = i;
   }
-  for (std::uint32_t i = 0; i < nlocal; ++i) std::fill(row.begin() + start[i], row.begin() + start[i + 1], i);
   for (std::size_t i = 0; i < p.nlocal; ++i) sort_by_id(p, partner.data() + start[i], start[i + 1] - start[i]);
+  fill_rows();
+}
+
+void NeighborList::fill_rows() {
+  row.resize(partner.size());
+  for (std::size_t i = 0; i + 1 < start.size(); ++i)
+    std::fill(row.begin() + start[i], row.begin() + start[i + 1], static_cast<std::uint32_t>(i));
 }
 
 void NeighborList::build_by_size_class(const ParticleStore& p, const Decomposition& dom, double range, double skin,
@@ -239,9 +244,7 @@ void NeighborList::build_by_size_class(const ParticleStore& p, const Decompositi
     sort_by_id(p, partner.data() + start[i], partner.size() - start[i]);
   }
   start[p.nlocal] = static_cast<std::uint32_t>(partner.size());
-  row.resize(partner.size());
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    std::fill(row.begin() + start[i], row.begin() + start[i + 1], static_cast<std::uint32_t>(i));
+  fill_rows();
 }
 
 }  // namespace cassini
