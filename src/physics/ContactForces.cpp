@@ -63,6 +63,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   // that are not exact negatives, see mirror_spring below, are evaluated on both sides).
   if (mirror_.size() != nl.size()) build_mirrors(p, nl);
   std::uint32_t* MIRROR = mirror_.data();
+  constexpr bool keeps = fric || Parts::bridges;  // history on both entries of a pair: see split_
+  const std::uint32_t* SPLIT = split_.data();
   MirrorResult* OUT = mirrored_.data();
   Vec3* OUT_TORQUE = fric ? mirrored_torque_.data() : nullptr;
   // Result slots are handed out afresh every step, one per pair that has a result (touching, or
@@ -282,10 +284,13 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     // order is what makes the two sides' results exact negatives of each other.
     if (fric) vrel -= (ID[i] < ID[j] ? ai * W[i] + A[j] * W[j] : A[j] * W[j] + ai * W[i]).cross(n);
     Vec3 ft;
-    // Springs carried over from an independent two-sided evaluation (across a rank or
-    // periodic boundary before a migration) may differ in the last bits: then j's side is
-    // evaluated on its own spring, as j would.
-    const bool mirror_spring = fric && mk != kNoMirror && XI[mk] == -XI[k] && (!rolls || XR[mk] == -XR[k]);
+    // A pair whose history came from two independent evaluations (split_) has j's side
+    // evaluated on its own spring, as j would; any other owned pair's is the exact negative.
+    bool split = false;
+    if (keeps && mk != kNoMirror) {
+      while (*SPLIT < k) ++SPLIT;  // the listed entries come in ascending order
+      split = *SPLIT == k;
+    }
     double shift = 0;
     const double reff = hertz || rolls ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
     // Rolling: relative spin and reduced moment of inertia about the contact point (I + m a^2
@@ -318,7 +323,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       // boundary before a migration; the image's coordinates round differently) may differ
       // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
       if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
-      const bool own_law = vdep && U[mk] != U[k];
+      const bool own_law = vdep && U[mk] != U[k];  // only in split_ (found with the springs)
       const std::uint32_t slot = claim(mk);  // first: it may move OUT
       MirrorResult& out = OUT[slot];
       out.shift = shift;
@@ -328,14 +333,10 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         const Vec3 nj = -n;
         Vec3 ftj;
         Vec3 rolling_torque = Vec3::Zero();
-        if (mirror_spring && !own_law) {
+        if (!split && !own_law) {
           out.f = -f;
           ftj = -ft;
-          XI[mk] = -XI[k];
-          if (rolls) {
-            XR[mk] = -XR[k];
-            rolling_torque = -rl.torque;
-          }
+          if (rolls) rolling_torque = -rl.torque;
         } else {
           const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
                                                         : law_of(S[j], si, mk);
@@ -368,6 +369,7 @@ void ContactForces::final_integrate(Simulation& sim) {
 
 double ContactForces::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
+  sync_mirror_springs(p, sim.neighbors);
   double e = 0;
   sim.neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
     const std::size_t i = c.i, j = c.j, k = c.k;
@@ -381,19 +383,32 @@ double ContactForces::elastic_energy(const Simulation& sim) const {
   return e;
 }
 
+void ContactForces::in_contact(std::vector<std::uint32_t>& out) const {
+  out.resize(touching_.size());
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < touching_.size(); ++k) {  // no branch: one entry in eight touches
+    out[n] = static_cast<std::uint32_t>(k);
+    n += touching_[k] != 0;
+  }
+  out.resize(n);
+}
+
 void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& out) const {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   out.clear();
-  if (nl.start.size() != p.nlocal + 1) return;
+  if (nl.start.size() != p.nlocal + 1 || touching_.size() != nl.size()) return;
   const bool fric = law_.friction() && xi_.size() == nl.size();
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
   const bool rolls = law_.rolling() && roll_.size() == nl.size();
-  nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
+  sync_mirror_springs(p, nl);
+  std::vector<std::uint32_t> entries;
+  in_contact(entries);
+  for (const std::uint32_t k : entries) {
     const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
     const double u = vdep ? impact_[k] : 0.0;
-    if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[i], p.id[j], xi, u, roll});
-  });
+    if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[nl.row[k]], p.id[nl.partner[k]], xi, u, roll});
+  }
 }
 
 PairLaw ContactForces::entry_law(int a, int b, std::uint32_t k) const {
@@ -404,6 +419,7 @@ PairLaw ContactForces::entry_law(int a, int b, std::uint32_t k) const {
 void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
   const ParticleStore& p = sim.particles;
   const bool fric = law_.friction();
+  sync_mirror_springs(p, sim.neighbors);
   sim.neighbors.for_each_overlap(p, true, [&](const NeighborList::Overlap& c) {
     const std::size_t i = c.i, j = c.j, k = c.k;
     const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
@@ -447,6 +463,7 @@ void ContactForces::refresh_diagnostics(const Simulation& sim) {
 void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl) {
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   refill(mirror_, nl.size(), kNoMirror);
+  split_.assign(1, kSplitEnd);  // none (post_rebuild finds them)
   if (active_.size() != nl.size()) refill(active_, nl.size(), 0u);
   nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
@@ -460,11 +477,39 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
   });
 }
 
+void ContactForces::sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const {
+  const bool fric = law_.friction() && xi_.size() == nl.size(), rolls = law_.rolling() && roll_.size() == nl.size();
+  if (!(fric || rolls) || mirror_.size() != nl.size() || touching_.size() != nl.size()) return;
+  std::vector<std::uint32_t> entries;
+  in_contact(entries);
+  const std::uint32_t* split = split_.data();
+  for (const std::uint32_t k : entries) {
+    const std::uint32_t i = nl.row[k], j = nl.partner[k];
+    if (j <= i || j >= p.nlocal) continue;  // the evaluating entries of owned pairs
+    while (*split < k) ++split;
+    if (*split == k) continue;  // both sides kept
+    if (fric) xi_[mirror_[k]] = -xi_[k];
+    if (rolls) roll_[mirror_[k]] = -roll_[k];
+  }
+}
+
 void ContactForces::pre_rebuild(Simulation& sim) {
   // Without a list yet (first rebuild, or after a restart) keep what is in the stash.
   if (!keeps_history() || sim.neighbors.start.size() != sim.particles.nlocal + 1) return;
   springs(sim, sim.history);
 }
+
+namespace {
+// Open addressing over the stash's (owner, partner) ids: each touching entry finds its history
+// in about one probe, where sorting the stash and searching it per particle cost several times
+// the rest of post_rebuild (mispredicted branches, in a gas of one contact per particle or so).
+std::uint64_t pair_hash(std::int64_t owner, std::int64_t partner) {
+  std::uint64_t h = static_cast<std::uint64_t>(owner) * 0x9E3779B97F4A7C15ull;
+  h ^= static_cast<std::uint64_t>(partner) + 0x632BE59BD9B4E019ull + (h << 6) + (h >> 2);
+  return h * 0xD6E8FEB86659FD93ull;
+}
+constexpr std::uint32_t kEmpty = 0xffffffffu;
+}  // namespace
 
 void ContactForces::post_rebuild(Simulation& sim) {
   const ParticleStore& p = sim.particles;
@@ -472,6 +517,7 @@ void ContactForces::post_rebuild(Simulation& sim) {
   build_mirrors(p, nl);
   // Pairs already touching across a rebuild are not new collisions.
   refill(touching_, nl.size(), 0);
+  touching_now_.clear();
   nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j < i) return;  // an owned pair: set from its lower slot, below
     const double R = p.radius[i] + p.radius[j];
@@ -480,44 +526,61 @@ void ContactForces::post_rebuild(Simulation& sim) {
     // and so that a contact that began in this step is still counted as a collision): from
     // the state, delta + v_n dt > 0. Rebuilds happen at the same steps on any number of ranks
     // and at every snapshot, so this keeps runs rank-independent and restart-exact.
+    bool touch;
     if (law_.exact()) {
       const double r = d.norm();
-      touching_[k] = R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0;
+      touch = R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0;
     } else {
-      touching_[k] = d.squaredNorm() < R * R;
+      touch = d.squaredNorm() < R * R;
     }
+    touching_[k] = touch;
     // The partner's entry: d and v_i - v_j negated exactly, the same operations, the same answer.
-    if (mirror_[k] != kNoMirror) touching_[mirror_[k]] = touching_[k];
+    if (mirror_[k] != kNoMirror) touching_[mirror_[k]] = touch;
+    if (touch) touching_now_.push_back(k);
   });
   if (!keeps_history()) return;
   auto& stash = sim.history;
-  if (law_.friction()) refill(xi_, nl.size(), Vec3::Zero());
-  if (law_.velocity_dependent()) refill(impact_, nl.size(), 0.0);
-  if (law_.rolling()) refill(roll_, nl.size(), Vec3::Zero());
-  // The stash's (owner, partner) keys sorted, not the entries themselves (a third of the bytes
-  // to move); each particle then finds its owner block once and walks it with its list, both in
-  // partner-id order.
-  keys_.clear();
-  for (std::uint32_t at = 0; at < stash.size(); ++at) keys_.push_back({stash[at].owner, stash[at].partner, at});
-  std::sort(keys_.begin(), keys_.end(), [](const StashKey& a, const StashKey& b) {
-    return a.owner < b.owner || (a.owner == b.owner && (a.partner < b.partner || (a.partner == b.partner && a.at < b.at)));
-  });
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    auto it = keys_.end();
-    for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-      if (!touching_[k]) continue;  // separated during the drift: the spring is gone
-      if (it == keys_.end())
-        it = std::lower_bound(keys_.begin(), keys_.end(), p.id[i],
-                              [](const StashKey& a, std::int64_t owner) { return a.owner < owner; });
-      const std::int64_t partner = p.id[nl.partner[k]];
-      while (it != keys_.end() && it->owner == p.id[i] && it->partner < partner) ++it;
-      if (it == keys_.end() || it->owner != p.id[i] || it->partner != partner) continue;
-      const HistoryEntry& h = stash[it->at];
-      if (law_.friction()) xi_[k] = h.xi;
-      if (law_.velocity_dependent()) impact_[k] = h.impact;
-      if (law_.rolling()) roll_[k] = h.roll;
+  const bool fric = law_.friction(), vdep = law_.velocity_dependent(), rolls = law_.rolling();
+  if (fric) refill(xi_, nl.size(), Vec3::Zero());
+  if (vdep) refill(impact_, nl.size(), 0.0);
+  if (rolls) refill(roll_, nl.size(), Vec3::Zero());
+  // The stash hashed by (owner, partner), at most half full; of equal keys (a small periodic box
+  // can list one partner twice) the first.
+  std::size_t size = 64;
+  while (size < 2 * stash.size()) size *= 2;
+  const std::uint64_t mask = size - 1;
+  table_.assign(size, kEmpty);
+  for (std::uint32_t at = 0; at < stash.size(); ++at) {
+    for (std::uint64_t h = pair_hash(stash[at].owner, stash[at].partner) & mask;; h = (h + 1) & mask) {
+      const std::uint32_t q = table_[h];
+      if (q == kEmpty) { table_[h] = at; break; }
+      if (stash[q].owner == stash[at].owner && stash[q].partner == stash[at].partner) break;
     }
   }
+  auto restore = [&](std::uint32_t k, std::int64_t owner, std::int64_t partner) {
+    for (std::uint64_t h = pair_hash(owner, partner) & mask;; h = (h + 1) & mask) {
+      const std::uint32_t q = table_[h];
+      if (q == kEmpty) return;  // a new contact (or one that began in the drift)
+      const HistoryEntry& e = stash[q];
+      if (e.owner != owner || e.partner != partner) continue;
+      if (fric) xi_[k] = e.xi;
+      if (vdep) impact_[k] = e.impact;
+      if (rolls) roll_[k] = e.roll;
+      return;
+    }
+  };
+  // Touching pairs only (a spring separated during the drift is gone), both sides of an owned
+  // pair, then the pairs whose two sides did not arrive as exact negatives (see split_).
+  split_.clear();
+  for (const std::uint32_t k : touching_now_) {
+    const std::uint32_t i = nl.row[k], j = nl.partner[k], q = mirror_[k];
+    restore(k, p.id[i], p.id[j]);
+    if (q == kNoMirror) continue;
+    restore(q, p.id[j], p.id[i]);
+    if ((fric && xi_[q] != -xi_[k]) || (rolls && roll_[q] != -roll_[k]) || (vdep && impact_[q] != impact_[k]))
+      split_.push_back(k);
+  }
+  split_.push_back(kSplitEnd);
   stash.clear();
 }
 

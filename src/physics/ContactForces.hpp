@@ -95,16 +95,27 @@ class ContactForces : public Module {
   std::vector<std::uint32_t> active_;  // force(): the entries with work this step
   std::vector<MirrorResult> mirrored_;
   std::vector<Vec3> mirrored_torque_;  // with friction: the partner's torque, per result slot
-  std::vector<Vec3> xi_;  // tangential spring per neighbour-list entry
+  // Tangential spring per neighbour-list entry. A pair of owned particles keeps its spring on
+  // its evaluating entry; the receiving entry's is its exact negative, written only when
+  // something reads it (sync_mirror_springs), so the pair loop does not touch the partner's
+  // entry at random for every contact. Pairs in split_ keep both, each side evolving its own.
+  mutable std::vector<Vec3> xi_;
   std::vector<double> impact_;  // Bridges law: impact normal speed per entry in contact (0: none)
-  std::vector<Vec3> roll_;      // rolling resistance: torque spring per entry
+  mutable std::vector<Vec3> roll_;  // rolling resistance: torque spring per entry, kept as xi_
+  // The evaluating entries (ascending, then kSplitEnd) of owned pairs whose two sides' history
+  // came from independent evaluations (across a rank or periodic boundary before a migration)
+  // and is not an exact negation: springs or impact speeds that may differ in the last bits.
+  // Their partner side is evaluated on its own history, as the partner would, until the next
+  // rebuild. Found by post_rebuild, the only place history arrives from elsewhere.
+  static constexpr std::uint32_t kSplitEnd = 0xffffffffu;
+  std::vector<std::uint32_t> split_{kSplitEnd};
+  void sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const;
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   PendingShifts shifts_;  // exact scheme: moves of this step
-  struct StashKey {
-    std::int64_t owner, partner;
-    std::uint32_t at;  // the entry in the stash
-  };
-  std::vector<StashKey> keys_;  // post_rebuild's look-up of the history stash
+  std::vector<std::uint32_t> table_;     // post_rebuild: the history stash hashed by (owner, partner)
+  std::vector<std::uint32_t> touching_now_;  // post_rebuild: the entries whose pair touches
+  // The entries in contact at the last evaluation, ascending (springs are zero elsewhere).
+  void in_contact(std::vector<std::uint32_t>& out) const;
   double overlap_sum_ = 0;
   long collisions_ = 0;
   double impact_loss_ = 0;
