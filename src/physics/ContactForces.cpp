@@ -188,7 +188,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       const int si = S[i];
       if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
         const Vec3 d = xi - X[j];
-        const Vec3 n = d / std::sqrt(d.squaredNorm());
+        const Vec3 n = d * (1 / std::sqrt(d.squaredNorm()));  // as the main path below
         const double mj = M[j];
         const double m = mi * mj / (mi + mj);
         dsum += (-(m / mi) * r.shift) * n;
@@ -222,7 +222,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
           const double mi = M[i];
           const int si = S[i];
           const double r = std::sqrt(r2);
-          const Vec3 n = d / r;
+          const Vec3 n = d * (1 / r);
           const double mj = M[j];
           const double m = mi * mj / (mi + mj);
           const double vn = (vi - V[j]).dot(n);
@@ -262,7 +262,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     const double mi = M[i];
     const int si = S[i];
     const double r = std::sqrt(r2);
-    const Vec3 n = d / r;
+    const Vec3 n = d * (1 / r);  // one division, not three; exactly negated from j's side
     const double delta = R - r;
     const double mj = M[j];
     const double m = mi * mj / (mi + mj);
@@ -310,7 +310,9 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     // Lever from i's centre to the contact point, plus rolling resistance: summed before joining
     // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
     // which side evaluates it.
-    if (fric) tsum += rolls ? Vec3((-ai * n).cross(ft) + rl.torque) : Vec3((-ai * n).cross(ft));
+    // The lever arm's cross product is shared: j's side, (-n) x (-f_t), is the same bits.
+    const Vec3 nxft = fric ? Vec3(n.cross(ft)) : Vec3::Zero();
+    if (fric) tsum += rolls ? Vec3(-ai * nxft + rl.torque) : Vec3(-ai * nxft);
     // The diagnostics, for both owned sides of a pair at once (the same overlap either way).
     const int sides = mk != kNoMirror ? 2 : 1;
     contacts += sides;
@@ -349,7 +351,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
             rolling_torque = rj.torque;
           }
         }
-        if (fric) OUT_TORQUE[MIRROR[mk]] = (-A[j] * nj).cross(ftj) + rolling_torque;
+        if (fric) OUT_TORQUE[MIRROR[mk]] = -A[j] * (split || own_law ? Vec3(nj.cross(ftj)) : nxft) + rolling_torque;
       }
     }
   }
