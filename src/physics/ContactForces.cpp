@@ -57,32 +57,13 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const std::int64_t* ID = p.id.data();
   double overlap_sum = 0;
   long onsets = 0;
-  // A pair of two owned particles is evaluated once, from its lower slot; the result is stored
-  // at the partner's mirror entry and read there in list order. The law is exactly antisymmetric
-  // (see LinearSpringDashpot), so this is bitwise the same as evaluating both sides (springs
-  // that are not exact negatives, see mirror_spring below, are evaluated on both sides).
+  // A pair of two owned particles is evaluated once, from its lower slot; the partner's entry
+  // reads the result. The law is exactly antisymmetric (see LinearSpringDashpot), so this is
+  // bitwise the same as evaluating both sides (pairs in split_ are evaluated on both sides).
   if (mirror_.size() != nl.size()) build_mirrors(p, nl);
   std::uint32_t* MIRROR = mirror_.data();
   constexpr bool keeps = fric || Parts::bridges;  // history on both entries of a pair: see split_
   const std::uint32_t* SPLIT = split_.data();
-  MirrorResult* OUT = mirrored_.data();
-  Vec3* OUT_TORQUE = fric ? mirrored_torque_.data() : nullptr;
-  // Result slots are handed out afresh every step, one per pair that has a result (touching, or
-  // at the exact scheme's exit step), in evaluation order: memory for the pairs in contact, not
-  // for every listed pair, and the receiving side reads them in nearly the order they were written.
-  std::uint32_t used = 0;
-  auto claim = [&](std::uint32_t mk) {
-    if (used == mirrored_.size()) {  // more pairs in contact than ever before on this rank
-      mirrored_.resize(2 * std::size_t(used) + 64);
-      OUT = mirrored_.data();
-      if (fric) {
-        mirrored_torque_.resize(mirrored_.size());
-        OUT_TORQUE = mirrored_torque_.data();
-      }
-    }
-    MIRROR[mk] = used;  // the receiving entry: where this step's result is
-    return used++;
-  };
   Vec3* FORCE = p.f.data();
   Vec3* TORQUE = fric ? p.torque.data() : nullptr;
   constexpr bool exact = Parts::exact;
@@ -118,29 +99,36 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const double half_jump_dt = sheared ? 0.5 * sim.domain.shear.rate * sim.domain.length[1] * dt : 0.0;
   double boundary_work = 0;
   auto across = [&](std::uint32_t j) { return X[j][1] >= y_hi ? 1.0 : X[j][1] < y_lo ? -1.0 : 0.0; };
-  // Ascending slots (all, or the multi-rate integrator's targets): a mirror result is read
-  // after its lower slot wrote it.
+  // Ascending slots (all, or the multi-rate integrator's targets): a pair's result is written
+  // before its partner's entry reads it.
   const Simulation::TargetList targets = sim.target_list();
   // Between the multi-rate integrator's long steps, a free particle's stored state is that of
   // an earlier time: it is skipped (it is woken before it can touch anything).
   const double* LAZY = Plain || sim.lazy_column < 0 ? nullptr : p.module_columns[sim.lazy_column].data.data();
-  // Two passes. The first lists the entries with work: in contact now (the same test from
-  // either side of a pair: d negated exactly, the same r^2 and a_i + a_j), or at the last
-  // evaluation (an exit, or a result to read). It has no branches: with ~1.4 entries a row in a
-  // gas and one in eight touching, a single pass mispredicted about one branch per entry (row
-  // ends, evaluating or receiving side, contact or not: cachegrind --branch-sim), which cost
-  // more than its instructions. The second pass runs the contact code on the listed entries,
-  // row by row in list order: every sum is taken in the same order as in a single pass.
+  // Three passes, none of whose few branches a gas can predict badly (cachegrind --branch-sim;
+  // with ~1.7 entries a row and one in eight touching, a single loop mispredicted about one
+  // branch per entry, and a mispredicted branch behind a contact's long chain of square roots
+  // and divisions threw away the overlap of the next contacts' work):
+  //  1. list the entries with work: in contact now (the same test from either side of a pair:
+  //     d negated exactly, the same r^2 and a_i + a_j) or at the last evaluation (an exit); and
+  //     among them those that evaluate their pair (partner above, or a ghost);
+  //  2. evaluate those, each into its own result slot (the partner's entry gets the slot's
+  //     number, or a slot of its own when its side is evaluated apart: split_, Bridges);
+  //  3. sum the listed entries' results row by row in list order: every sum is taken in the
+  //     same order as by a single loop over the list.
   std::uint32_t* ACTIVE = active_.data();  // one slot per entry (build_mirrors)
+  std::uint32_t* EVAL = evaluating_.data();
   const std::uint32_t* ROW = nl.row.data();
-  std::size_t nactive = 0;
+  std::size_t nactive = 0, neval = 0;
   if constexpr (Plain) {
     const std::size_t entries = nl.size();
     for (std::size_t k = 0; k < entries; ++k) {
       const std::uint32_t i = ROW[k], j = partner[k];
       const double R = A[i] + A[j];
-      ACTIVE[nactive] = static_cast<std::uint32_t>(k);  // nactive <= k: in bounds
-      nactive += (T[k] != 0) | ((X[i] - X[j]).squaredNorm() < R * R);
+      const bool work = (T[k] != 0) | ((X[i] - X[j]).squaredNorm() < R * R);
+      ACTIVE[nactive] = EVAL[neval] = static_cast<std::uint32_t>(k);  // nactive, neval <= k: in bounds
+      nactive += work;
+      neval += work & (j >= i);  // j == i: a particle's own periodic image, evaluated
     }
   } else {
     for (std::size_t t = 0; t < targets.count; ++t) {
@@ -149,107 +137,81 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         const std::uint32_t j = partner[k];
         if (LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
         const double R = A[i] + A[j];
-        if (T[k] || (X[i] - X[j]).squaredNorm() < R * R) ACTIVE[nactive++] = k;
+        if (T[k] || (X[i] - X[j]).squaredNorm() < R * R) {
+          ACTIVE[nactive++] = k;
+          if (j >= i) EVAL[neval++] = k;
+        }
       }
     }
   }
-  // The row being summed: what every entry needs; the rest of the row's particle is read by the
-  // contacts that need it, and its force written only if some entry added to it.
-  std::size_t i = p.nlocal;  // none yet
-  Vec3 xi = Vec3::Zero(), fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
-  double ai = 0;
-  bool touched = false, moved = false;
-  auto end_row = [&] {
-    if (touched) {
-      FORCE[i] += fsum;
-      if (fric) TORQUE[i] += tsum;
-    }
-    if (exact && moved) shifts_.add(i, dsum);
+  // Pass 2. Slot e holds EVAL[e]'s result; slots past neval, the partner sides evaluated apart.
+  results_.resize(neval);
+  if (rolls) result_roll_.resize(neval);
+  Result* RES = results_.data();
+  Vec3* RROLL = rolls ? result_roll_.data() : nullptr;
+  auto own_slot = [&] {  // rare: a partner side evaluated apart
+    results_.emplace_back();
+    if (rolls) result_roll_.emplace_back();
+    RES = results_.data();
+    RROLL = rolls ? result_roll_.data() : nullptr;
+    return static_cast<std::uint32_t>(results_.size() - 1);
   };
-  for (std::size_t a = 0; a < nactive; ++a) {
-    const std::uint32_t k = ACTIVE[a];
-    if (ROW[k] != i) {
-      if (i < p.nlocal) end_row();
-      i = ROW[k];
-      xi = X[i];
-      ai = A[i];
-      fsum.setZero();
-      tsum.setZero();
-      dsum.setZero();
-      touched = moved = false;
-    }
-    const std::uint32_t j = partner[k];
-    if (j < i) {  // owned partner, already evaluated from j's side
-      if (!T[k]) continue;
-      const MirrorResult& r = OUT[MIRROR[k]];  // a receiving entry holds its pair's result slot
-      fsum += r.f;
-      touched = true;
-      const double mi = M[i];
-      const int si = S[i];
-      if (r.shift != 0) {  // rare (onset and exit steps): rebuild the move as j's side would
-        const Vec3 d = xi - X[j];
-        const Vec3 n = d * (1 / std::sqrt(d.squaredNorm()));  // as the main path below
-        const double mj = M[j];
-        const double m = mi * mj / (mi + mj);
-        dsum += (-(m / mi) * r.shift) * n;
-        moved = true;
-      }
-      if (T[k] == kParted) {  // the exact scheme's exit step: a force, not a contact
-        T[k] = 0;
-        continue;
-      }
-      if (fric) tsum += OUT_TORQUE[MIRROR[k]];
-      if (limit) add_load(i, j, law_of(si, S[j], k));
-      continue;  // counted in the diagnostics by the evaluating side
-    }
+  for (std::size_t e = 0; e < neval; ++e) {
+    const std::uint32_t k = EVAL[e];
+    const std::uint32_t i = ROW[k], j = partner[k];
     const std::uint32_t mk = MIRROR[k];  // kNoMirror for a ghost partner
+    RES[e].flags = 0;
+    const Vec3 xi = X[i];
+    const double ai = A[i];
     const Vec3 d = xi - X[j];
     const double r2 = d.squaredNorm(), R = ai + A[j];
-    if (r2 >= R * R) {
-      if (T[k]) {  // contact just ended: forget the spring (writes only on transitions)
-        T[k] = 0;
-        if (fric) XI[k].setZero();
-        if (rolls) XR[k].setZero();
-        if (mk != kNoMirror) {
-          T[mk] = 0;
-          if (fric) XI[mk].setZero();
-          if (rolls) XR[mk].setZero();
+    if (r2 >= R * R) {  // contact just ended (listed for T[k]): forget the spring
+      T[k] = 0;
+      if (fric) XI[k].setZero();
+      if (rolls) XR[k].setZero();
+      if (mk != kNoMirror) {
+        T[mk] = 0;
+        if (fric) XI[mk].setZero();
+        if (rolls) XR[mk].setZero();
+      }
+      // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
+      // touched at the last evaluation can have parted during the step.
+      if (exact) {
+        const Vec3 vi = V[i];
+        const double mi = M[i];
+        const int si = S[i];
+        const double r = std::sqrt(r2);
+        const Vec3 n = d * (1 / r);
+        const double mj = M[j];
+        const double m = mi * mj / (mi + mj);
+        const double vn = (vi - V[j]).dot(n);
+        const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, 0.0);
+        if (ns.fn != 0 || ns.shift != 0) {
+          const Vec3 f = ns.fn * n;
+          RES[e].f = f;
+          RES[e].shift = ns.shift;
+          RES[e].flags = kHasForce;
+          if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
         }
-        // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
-        // touched at the last evaluation can have parted during the step.
-        if (exact) {
-          const Vec3 vi = V[i];
-          const double mi = M[i];
-          const int si = S[i];
-          const double r = std::sqrt(r2);
-          const Vec3 n = d * (1 / r);
-          const double mj = M[j];
-          const double m = mi * mj / (mi + mj);
-          const double vn = (vi - V[j]).dot(n);
-          const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, 0.0);
-          if (ns.fn != 0 || ns.shift != 0) {
-            const Vec3 f = ns.fn * n, shift = (-(m / mi) * ns.shift) * n;
-            fsum += f;
-            dsum += shift;
-            touched = true;
-            moved |= ns.shift != 0;
-            if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
-          }
-          if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
-            const NormalStep nj = vdep && U[mk] != U[k] ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
-            if (nj.fn != 0 || nj.shift != 0) {
-              T[mk] = kParted;
-              const std::uint32_t slot = claim(mk);  // first: it may move OUT
-              MirrorResult& out = OUT[slot];
-              out.f = -(nj.fn * n);
-              out.shift = nj.shift;
+        if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
+          const bool own_law = vdep && U[mk] != U[k];
+          const NormalStep nj = own_law ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
+          if (nj.fn != 0 || nj.shift != 0) {
+            T[mk] = kParted;
+            std::uint32_t slot = static_cast<std::uint32_t>(e);
+            if (own_law) {
+              slot = own_slot();
+              RES[slot].f = nj.fn * n;  // read negated
+              RES[slot].shift = nj.shift;
+              RES[slot].flags = kHasForce;
             }
+            MIRROR[mk] = slot;
           }
         }
-        if (vdep) {
-          U[k] = 0;
-          if (mk != kNoMirror) U[mk] = 0;
-        }
+      }
+      if (vdep) {
+        U[k] = 0;
+        if (mk != kNoMirror) U[mk] = 0;
       }
       continue;
     }
@@ -273,12 +235,11 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     if (vdep && (fresh || U[k] == 0)) U[k] = std::max(-vrel.dot(n), 0.0);
     const PairLaw& L0 = law_of(si, S[j], k);
     const double damping = limit ? std::min(limit_.scale(p, i), limit_.scale(p, j)) : 1.0;
-    if (limit) add_load(i, j, L0);
     const PairLaw& L = damping < 1 ? (limited_law = LinearSpringDashpot::damped(L0, damping)) : L0;
     if (onset) {
-      const double u = -vrel.dot(n), e = L.e;
-      impact_loss_ += 0.5 * (1 - e * e) * m * u * u;
-      impact_virial_ += ((1 + e) * m * u * R) * (n * n.transpose());
+      const double u = -vrel.dot(n), e_ = L.e;
+      impact_loss_ += 0.5 * (1 - e_ * e_) * m * u * u;
+      impact_virial_ += ((1 + e_) * m * u * R) * (n * n.transpose());
     }
     // The lower id's term first: a fused multiply-add rounds the other product, so a fixed
     // order is what makes the two sides' results exact negatives of each other.
@@ -299,20 +260,14 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), XR[k]};
     const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
     if (rolls) XR[k] = rl.spring;
-    fsum += f;
-    touched = true;
     if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
-    // A pair moved by `shift` more overlap: i goes m/m_i of it towards j (see LinearSpringDashpot).
-    if (shift != 0) {
-      dsum += (-(m / mi) * shift) * n;
-      moved = true;
-    }
-    // Lever from i's centre to the contact point, plus rolling resistance: summed before joining
-    // tsum, as j's side sums its mirrored torque, so the pair's result does not depend on
-    // which side evaluates it.
-    // The lever arm's cross product is shared: j's side, (-n) x (-f_t), is the same bits.
-    const Vec3 nxft = fric ? Vec3(n.cross(ft)) : Vec3::Zero();
-    if (fric) tsum += rolls ? Vec3(-ai * nxft + rl.torque) : Vec3(-ai * nxft);
+    // The lever arm's cross product, shared by both sides: j's, (-n) x (-f_t), is the same bits.
+    Result& res = RES[e];
+    res.f = f;
+    res.shift = shift;
+    res.flags = kHasForce | kContact;
+    if (fric) res.nxft = n.cross(ft);
+    if (rolls) RROLL[e] = rl.torque;
     // The diagnostics, for both owned sides of a pair at once (the same overlap either way).
     const int sides = mk != kNoMirror ? 2 : 1;
     contacts += sides;
@@ -326,34 +281,79 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       // in the last bits, as springs may: then j's side is evaluated on its own, as j would.
       if (vdep && (fresh || U[mk] == 0)) U[mk] = U[k];
       const bool own_law = vdep && U[mk] != U[k];  // only in split_ (found with the springs)
-      const std::uint32_t slot = claim(mk);  // first: it may move OUT
-      MirrorResult& out = OUT[slot];
-      out.shift = shift;
-      if (!fric && !own_law) {
-        out.f = -f;
-      } else {
+      std::uint32_t slot = static_cast<std::uint32_t>(e);
+      if (split || own_law) {
         const Vec3 nj = -n;
         Vec3 ftj;
-        Vec3 rolling_torque = Vec3::Zero();
-        if (!split && !own_law) {
-          out.f = -f;
-          ftj = -ft;
-          if (rolls) rolling_torque = -rl.torque;
-        } else {
-          const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
-                                                        : law_of(S[j], si, mk);
-          Rolling rj;
-          if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
-          out.f = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &out.shift, reff,
-                             rolls ? &rj : nullptr);
-          if (rolls) {
-            XR[mk] = rj.spring;
-            rolling_torque = rj.torque;
-          }
-        }
-        if (fric) OUT_TORQUE[MIRROR[mk]] = -A[j] * (split || own_law ? Vec3(nj.cross(ftj)) : nxft) + rolling_torque;
+        const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
+                                                      : law_of(S[j], si, mk);
+        Rolling rj;
+        if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
+        double shift_j = 0;
+        const Vec3 fj = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &shift_j,
+                                   reff, rolls ? &rj : nullptr);
+        if (rolls) XR[mk] = rj.spring;
+        slot = own_slot();
+        RES[slot].f = -fj;  // read negated
+        RES[slot].shift = shift_j;
+        RES[slot].flags = kHasForce | kContact;
+        if (fric) RES[slot].nxft = nj.cross(ftj);
+        if (rolls) RROLL[slot] = -rj.torque;  // read negated
       }
+      MIRROR[mk] = slot;
     }
+  }
+  // Pass 3: the rows' sums, in list order. A receiving entry (partner below) reads its pair's
+  // slot negated; its move is rebuilt as its own side would (rare: onset and exit steps).
+  std::size_t i = p.nlocal;  // none yet
+  Vec3 xi = Vec3::Zero(), fsum = Vec3::Zero(), tsum = Vec3::Zero(), dsum = Vec3::Zero();
+  double ai = 0;
+  bool touched = false, moved = false;
+  auto end_row = [&] {
+    if (touched) {
+      FORCE[i] += fsum;
+      if (fric) TORQUE[i] += tsum;
+    }
+    if (exact && moved) shifts_.add(i, dsum);
+  };
+  std::size_t e = 0;
+  for (std::size_t a = 0; a < nactive; ++a) {
+    const std::uint32_t k = ACTIVE[a];
+    if (ROW[k] != i) {
+      if (i < p.nlocal) end_row();
+      i = ROW[k];
+      xi = X[i];
+      ai = A[i];
+      fsum.setZero();
+      tsum.setZero();
+      dsum.setZero();
+      touched = moved = false;
+    }
+    const std::uint32_t j = partner[k];
+    const bool receiving = j < i;
+    if (receiving && !T[k]) continue;  // parted without a force
+    const std::uint32_t slot = receiving ? MIRROR[k] : static_cast<std::uint32_t>(e);
+    e += !receiving;
+    const Result& r = RES[slot];
+    if (!(r.flags & kHasForce)) continue;
+    const double sign = receiving ? -1.0 : 1.0;
+    fsum += sign * r.f;  // negation is exact
+    touched = true;
+    if (r.shift != 0) {  // i's part of the pair's move, along i's own normal
+      const Vec3 d = xi - X[j];
+      const Vec3 n = d * (1 / std::sqrt(d.squaredNorm()));
+      const double mi = M[i], mj = M[j];
+      const double m = mi * mj / (mi + mj);
+      dsum += (-(m / mi) * r.shift) * n;
+      moved = true;
+    }
+    if (receiving && T[k] == kParted) {  // the exact scheme's exit step, read: a force, not a contact
+      T[k] = 0;
+      continue;
+    }
+    if (!(r.flags & kContact)) continue;
+    if (fric) tsum += rolls ? Vec3(-ai * r.nxft + sign * RROLL[slot]) : Vec3(-ai * r.nxft);
+    if (limit) add_load(i, j, law_of(S[i], S[j], k));
   }
   if (i < p.nlocal) end_row();
   contacts_ = contacts;
@@ -467,6 +467,7 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
   refill(mirror_, nl.size(), kNoMirror);
   split_.assign(1, kSplitEnd);  // none (post_rebuild finds them)
   if (active_.size() != nl.size()) refill(active_, nl.size(), 0u);
+  if (evaluating_.size() != nl.size()) refill(evaluating_, nl.size(), 0u);
   nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)

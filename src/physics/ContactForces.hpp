@@ -73,15 +73,18 @@ class ContactForces : public Module {
 
  private:
   // Per list entry: on the entry that evaluates an owned pair (partner above), the partner's
-  // entry for the same pair; on the partner's (receiving) entry, the slot in mirrored_ where
-  // this step's partner-side result was written (valid while touching_ says there is one);
-  // kNoMirror for a ghost partner.
+  // entry for the same pair; on the partner's (receiving) entry, this step's result slot (valid
+  // while touching_ says there is one); kNoMirror for a ghost partner.
   static constexpr std::uint32_t kNoMirror = 0xffffffffu;
-  struct MirrorResult {
+  // A pair's result from its evaluating side; the receiving side reads f negated.
+  struct Result {
     Vec3 f;
+    Vec3 nxft;     // with friction: n x f_t, the torque's lever product (the same from both sides)
     double shift;  // the exact scheme's overlap shift (0 but at onset and exit steps)
+    std::uint32_t flags;
   };
-  static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, result in mirrored_
+  static constexpr std::uint32_t kHasForce = 1, kContact = 2;  // kContact: torque and load too
+  static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, a force to read
   template <bool Plain, class Parts>
   void evaluate(Simulation& sim, const Parts& parts);
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
@@ -92,9 +95,10 @@ class ContactForces : public Module {
   LinearSpringDashpot law_;
   DampingLimit limit_;  // on when a crowded particle could need it (LinearSpringDashpot::damping_limit)
   std::vector<std::uint32_t> mirror_;
-  std::vector<std::uint32_t> active_;  // force(): the entries with work this step
-  std::vector<MirrorResult> mirrored_;
-  std::vector<Vec3> mirrored_torque_;  // with friction: the partner's torque, per result slot
+  std::vector<std::uint32_t> active_;      // force(): the entries with work this step
+  std::vector<std::uint32_t> evaluating_;  // force(): those of them that evaluate their pair
+  std::vector<Result> results_;            // force(): one per evaluating entry, then extra
+  std::vector<Vec3> result_roll_;          // rolling resistance: the rolling torque, per result
   // Tangential spring per neighbour-list entry. A pair of owned particles keeps its spring on
   // its evaluating entry; the receiving entry's is its exact negative, written only when
   // something reads it (sync_mirror_springs), so the pair loop does not touch the partner's
