@@ -116,23 +116,36 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   //     number, or a slot of its own when its side is evaluated apart: split_, Bridges);
   //  3. sum the listed entries' results row by row in list order: every sum is taken in the
   //     same order as by a single loop over the list.
-  std::uint32_t* ACTIVE = active_.data();  // one slot per entry (build_mirrors)
-  std::uint32_t* EVAL = evaluating_.data();
+  // The lists grow in chunks of entries, so they hold about the entries with work (one in five
+  // in a gas) rather than one slot per entry: room for a whole chunk is made before it.
+  constexpr std::size_t kChunk = 4096;
+  auto room = [](std::vector<std::uint32_t>& list, std::size_t used, std::size_t more) {
+    if (used + more > list.size()) list.resize(used + more + list.size() / 4);
+    return list.data();
+  };
+  std::uint32_t* ACTIVE = nullptr;
+  std::uint32_t* EVAL = nullptr;
   const std::uint32_t* ROW = nl.row.data();
   std::size_t nactive = 0, neval = 0;
   if constexpr (Plain) {
     const std::size_t entries = nl.size();
-    for (std::size_t k = 0; k < entries; ++k) {
-      const std::uint32_t i = ROW[k], j = partner[k];
-      const double R = A[i] + A[j];
-      const bool work = (T[k] != 0) | ((X[i] - X[j]).squaredNorm() < R * R);
-      ACTIVE[nactive] = EVAL[neval] = static_cast<std::uint32_t>(k);  // nactive, neval <= k: in bounds
-      nactive += work;
-      neval += work & (j >= i);  // j == i: a particle's own periodic image, evaluated
+    for (std::size_t k0 = 0; k0 < entries; k0 += kChunk) {
+      ACTIVE = room(active_, nactive, kChunk);
+      EVAL = room(evaluating_, neval, kChunk);
+      for (std::size_t k = k0, k1 = std::min(entries, k0 + kChunk); k < k1; ++k) {
+        const std::uint32_t i = ROW[k], j = partner[k];
+        const double R = A[i] + A[j];
+        const bool work = (T[k] != 0) | ((X[i] - X[j]).squaredNorm() < R * R);
+        ACTIVE[nactive] = EVAL[neval] = static_cast<std::uint32_t>(k);  // written always, kept when counted
+        nactive += work;
+        neval += work & (j >= i);  // j == i: a particle's own periodic image, evaluated
+      }
     }
   } else {
     for (std::size_t t = 0; t < targets.count; ++t) {
       const std::size_t i = targets[t];
+      ACTIVE = room(active_, nactive, start[i + 1] - start[i]);
+      EVAL = room(evaluating_, neval, start[i + 1] - start[i]);
       for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
         const std::uint32_t j = partner[k];
         if (LAZY && LAZY[j] == 0) continue;  // a free particle between long steps: not touching (MultiRateHill)
@@ -466,8 +479,6 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
   // Lists are symmetric for owned pairs (same cut-off from both sides) and short.
   refill(mirror_, nl.size(), kNoMirror);
   split_.assign(1, kSplitEnd);  // none (post_rebuild finds them)
-  if (active_.size() != nl.size()) refill(active_, nl.size(), 0u);
-  if (evaluating_.size() != nl.size()) refill(evaluating_, nl.size(), 0u);
   nl.for_each_pair([&](std::size_t i, std::uint32_t j, std::uint32_t k) {
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
