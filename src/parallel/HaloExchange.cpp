@@ -338,25 +338,18 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
 void HaloExchange::update_ghosts(ParticleStore& p) {
   const int extra = p.ghost_column_width();
   const std::size_t width = 6 + (p.rotation ? 3 : 0) + extra;
-  for (int r = 0; r < dom_.nranks; ++r) {
-    auto& b = out_[r];
-    b.resize(send_[r].size() * width);
-    double* q = b.data();
-    for (const Image& im : send_[r]) {
-      const std::size_t i = im.index;
-      const Vec3 xs = p.x[i] + shift(im);
-      q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
-      q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
-      if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
-      double* e = q + width - extra;
-      for (const auto& c : p.module_columns)
-        if (c.ghosts) e = std::copy_n(&c.data[i * c.width], c.width, e);
-      q += width;
-    }
-  }
-  exchange(out_, in_, &recv_doubles_);
-  const double* b = in_.data();
-  for (std::size_t j = p.nlocal; j < p.size(); ++j, b += width) {
+  const int me = dom_.rank;
+  auto motion = [&](const Image& im, double* q) {  // x, v (and spin, columns) of an image
+    const std::size_t i = im.index;
+    const Vec3 xs = p.x[i] + shift(im);
+    q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
+    q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
+    if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
+    double* e = q + width - extra;
+    for (const auto& c : p.module_columns)
+      if (c.ghosts) e = std::copy_n(&c.data[i * c.width], c.width, e);
+  };
+  auto unpack = [&](const double* b, std::size_t j) {
     p.x[j] = Vec3(b[0], b[1], b[2]);
     p.v[j] = Vec3(b[3], b[4], b[5]);
     if (p.rotation) p.omega[j] = Vec3(b[6], b[7], b[8]);
@@ -366,6 +359,33 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
         std::copy_n(e, c.width, &c.data[j * c.width]);
         e += c.width;
       }
+  };
+  for (int r = 0; r < dom_.nranks; ++r) {
+    auto& b = out_[r];
+    b.resize(r == me ? 0 : send_[r].size() * width);  // this rank's own images: below, unbuffered
+    double* q = b.data();
+    for (std::size_t s = 0; r != me && s < send_[r].size(); ++s, q += width) motion(send_[r][s], q);
+  }
+  recv_others_ = recv_doubles_;
+  recv_others_[me] = 0;
+  exchange(out_, in_, &recv_others_);
+  // Ghosts are stored by source rank, in send order. On one rank every ghost is a periodic
+  // image of an own particle: written straight from it, where packing, copying and unpacking
+  // it went over the ghosts' data three times.
+  const double* b = in_.data();
+  std::size_t j = p.nlocal;
+  double own[32];  // one ghost's motion (wider module columns: a heap buffer)
+  std::vector<double> wide;
+  double* scratch = width <= std::size(own) ? own : (wide.resize(width), wide.data());
+  for (int r = 0; r < dom_.nranks; ++r) {
+    if (r == me) {
+      for (const Image& im : send_[me]) {
+        motion(im, scratch);
+        unpack(scratch, j++);
+      }
+      continue;
+    }
+    for (int g = 0; g < recv_ghosts_[r]; ++g, b += width) unpack(b, j++);
   }
 }
 

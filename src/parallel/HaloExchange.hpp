@@ -79,6 +79,7 @@ class HaloExchange {
   std::vector<std::vector<Image>> send_;  // per destination rank
   std::vector<int> recv_ghosts_;          // ghosts received per source rank
   std::vector<int> recv_doubles_;         // per-step update message sizes
+  std::vector<int> recv_others_;          // the same without this rank's own images
   double shear_base_ = 0;                 // offset - wrapped offset at the last build
   std::vector<std::vector<double>> out_;
   std::vector<double> in_;

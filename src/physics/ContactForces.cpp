@@ -184,6 +184,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       if (rolls) XR[k].setZero();
       if (mk != kNoMirror) {
         T[mk] = 0;
+        MIRROR[mk] = kNoMirror;  // no result, unless the exit correction below gives one
         if (fric) XI[mk].setZero();
         if (rolls) XR[mk].setZero();
       }
@@ -210,7 +211,6 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
           const bool own_law = vdep && U[mk] != U[k];
           const NormalStep nj = own_law ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
           if (nj.fn != 0 || nj.shift != 0) {
-            T[mk] = kParted;
             std::uint32_t slot = static_cast<std::uint32_t>(e);
             if (own_law) {
               slot = own_slot();
@@ -330,6 +330,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     if (exact && moved) shifts_.add(i, dsum);
   };
   std::size_t e = 0;
+  const Result none{Vec3::Zero(), Vec3::Zero(), 0.0, 0};
   for (std::size_t a = 0; a < nactive; ++a) {
     const std::uint32_t k = ACTIVE[a];
     if (ROW[k] != i) {
@@ -343,12 +344,12 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       touched = moved = false;
     }
     const std::uint32_t j = partner[k];
+    // Selects, not branches: which side an entry is on follows no pattern.
     const bool receiving = j < i;
-    if (receiving && !T[k]) continue;  // parted without a force
     const std::uint32_t slot = receiving ? MIRROR[k] : static_cast<std::uint32_t>(e);
     e += !receiving;
-    const Result& r = RES[slot];
-    if (!(r.flags & kHasForce)) continue;
+    const Result& r = *(slot == kNoMirror ? &none : RES + slot);
+    if (!(r.flags & kHasForce)) continue;  // parted without a force
     const double sign = receiving ? -1.0 : 1.0;
     fsum += sign * r.f;  // negation is exact
     touched = true;
@@ -360,11 +361,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       dsum += (-(m / mi) * r.shift) * n;
       moved = true;
     }
-    if (receiving && T[k] == kParted) {  // the exact scheme's exit step, read: a force, not a contact
-      T[k] = 0;
-      continue;
-    }
-    if (!(r.flags & kContact)) continue;
+    if (!(r.flags & kContact)) continue;  // the exact scheme's exit step: a force, not a contact
     if (fric) tsum += rolls ? Vec3(-ai * r.nxft + sign * RROLL[slot]) : Vec3(-ai * r.nxft);
     if (limit) add_load(i, j, law_of(S[i], S[j], k));
   }
@@ -483,8 +480,7 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
     if (j <= i || j >= p.nlocal) return;
     for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)
       if (nl.partner[q] == i) {
-        mirror_[k] = q;  // the evaluating entry: the partner's entry
-        mirror_[q] = 0;  // the receiving entry: its result's slot, set when there is one (force())
+        mirror_[k] = q;  // the evaluating entry: the partner's entry (the partner's own: force())
         break;
       }
     if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");

@@ -73,8 +73,9 @@ class ContactForces : public Module {
 
  private:
   // Per list entry: on the entry that evaluates an owned pair (partner above), the partner's
-  // entry for the same pair; on the partner's (receiving) entry, this step's result slot (valid
-  // while touching_ says there is one); kNoMirror for a ghost partner.
+  // entry for the same pair; on the partner's (receiving) entry, this step's result slot, or
+  // kNoMirror for none (written whenever the entry has work: both entries of a pair always
+  // do, the same test from either side); kNoMirror for a ghost partner.
   static constexpr std::uint32_t kNoMirror = 0xffffffffu;
   // A pair's result from its evaluating side; the receiving side reads f negated.
   struct Result {
@@ -84,7 +85,6 @@ class ContactForces : public Module {
     std::uint32_t flags;
   };
   static constexpr std::uint32_t kHasForce = 1, kContact = 2;  // kContact: torque and load too
-  static constexpr std::uint8_t kParted = 2;  // touching_: parted this step, a force to read
   template <bool Plain, class Parts>
   void evaluate(Simulation& sim, const Parts& parts);
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
