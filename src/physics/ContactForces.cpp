@@ -413,10 +413,7 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
   const bool fric = law_.friction() && xi_.size() == nl.size();
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
   const bool rolls = law_.rolling() && roll_.size() == nl.size();
-  sync_mirror_springs(p, nl);
-  std::vector<std::uint32_t> entries;
-  in_contact(entries);
-  for (const std::uint32_t k : entries) {
+  for (const std::uint32_t k : sync_mirror_springs(p, nl)) {
     const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
     const double u = vdep ? impact_[k] : 0.0;
     if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[nl.row[k]], p.id[nl.partner[k]], xi, u, roll});
@@ -487,11 +484,13 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
   });
 }
 
-void ContactForces::sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const {
-  const bool fric = law_.friction() && xi_.size() == nl.size(), rolls = law_.rolling() && roll_.size() == nl.size();
-  if (!(fric || rolls) || mirror_.size() != nl.size() || touching_.size() != nl.size()) return;
-  std::vector<std::uint32_t> entries;
+const std::vector<std::uint32_t>& ContactForces::sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const {
+  std::vector<std::uint32_t>& entries = in_contact_;
+  entries.clear();
+  if (touching_.size() != nl.size()) return entries;
   in_contact(entries);
+  const bool fric = law_.friction() && xi_.size() == nl.size(), rolls = law_.rolling() && roll_.size() == nl.size();
+  if (!(fric || rolls) || mirror_.size() != nl.size()) return entries;
   const std::uint32_t* split = split_.data();
   for (const std::uint32_t k : entries) {
     const std::uint32_t i = nl.row[k], j = nl.partner[k];
@@ -501,6 +500,7 @@ void ContactForces::sync_mirror_springs(const ParticleStore& p, const NeighborLi
     if (fric) xi_[mirror_[k]] = -xi_[k];
     if (rolls) roll_[mirror_[k]] = -roll_[k];
   }
+  return entries;
 }
 
 void ContactForces::pre_rebuild(Simulation& sim) {
@@ -538,8 +538,16 @@ void ContactForces::post_rebuild(Simulation& sim) {
     // and at every snapshot, so this keeps runs rank-independent and restart-exact.
     bool touch;
     if (law_.exact()) {
-      const double r = d.norm();
-      touch = R - r + (p.v[i] - p.v[j]).dot(d / r) * law_.dt() > 0;
+      // Farther apart than the pair can close in a step (|v| <= the sum of its components',
+      // with room for rounding): apart a step ago too, without the square root and division.
+      const Vec3 v = p.v[i] - p.v[j];
+      const double reach = R + (std::abs(v[0]) + std::abs(v[1]) + std::abs(v[2])) * law_.dt() * (1 + 1e-9) + 1e-12 * R;
+      if (d.squaredNorm() > reach * reach) {
+        touch = false;
+      } else {
+        const double r = d.norm();
+        touch = R - r + v.dot(d / r) * law_.dt() > 0;
+      }
     } else {
       touch = d.squaredNorm() < R * R;
     }

@@ -113,7 +113,9 @@ class ContactForces : public Module {
   // rebuild. Found by post_rebuild, the only place history arrives from elsewhere.
   static constexpr std::uint32_t kSplitEnd = 0xffffffffu;
   std::vector<std::uint32_t> split_{kSplitEnd};
-  void sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const;
+  // Writes them; returns the entries in contact (in_contact), which hold every spring.
+  const std::vector<std::uint32_t>& sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const;
+  mutable std::vector<std::uint32_t> in_contact_;  // sync_mirror_springs's list
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   PendingShifts shifts_;  // exact scheme: moves of this step
   std::vector<std::uint32_t> table_;     // post_rebuild: the history stash hashed by (owner, partner)
