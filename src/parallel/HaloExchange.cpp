@@ -288,35 +288,20 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   }
 
   // First exchange carries the full description of each ghost; later ones only the motion.
-  std::vector<std::vector<double>>& out = empty_buffers();
-  for (int r = 0; r < dom_.nranks; ++r)
-    for (const Image& im : send_[r]) {
-      const std::size_t i = im.index;
-      auto& b = out[r];
-      const Vec3 xs = p.x[i] + shift(im);
-      b.insert(b.end(), {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
-                         p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2]});
-      if (p.rotation) b.insert(b.end(), p.omega[i].data(), p.omega[i].data() + 3);
-      if (p.copies) b.push_back(im.copy);
-      for (const auto& c : p.module_columns)
-        if (c.ghosts) b.insert(b.end(), &c.data[i * c.width], &c.data[i * c.width] + c.width);
-    }
-  std::vector<double>& in = in_;
-  exchange(out, in);
   const int extra = p.ghost_column_width();  // the modules' columns, last
   const std::size_t width = 10 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0) + extra;
-  const std::size_t n = in.size() / width;
-  // Remember the receive sizes of the per-step update; one more Alltoall gives them.
-  std::vector<int> scount(dom_.nranks);
-  for (int r = 0; r < dom_.nranks; ++r) scount[r] = static_cast<int>(send_[r].size());
-  recv_ghosts_.assign(dom_.nranks, 0);
-  MPI_Alltoall(scount.data(), 1, MPI_INT, recv_ghosts_.data(), 1, MPI_INT, dom_.comm);
-  recv_doubles_.resize(dom_.nranks);
-  for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
-  p.resize(p.nlocal + n);
-  for (std::size_t g = 0; g < n; ++g) {
-    const double* b = &in[g * width];
-    const std::size_t j = p.nlocal + g;
+  auto describe = [&](const Image& im, double* b) {
+    const std::size_t i = im.index;
+    const Vec3 xs = p.x[i] + shift(im);
+    const double head[10] = {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
+                             p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2]};
+    b = std::copy_n(head, 10, b);
+    if (p.rotation) b = std::copy_n(p.omega[i].data(), 3, b);
+    if (p.copies) *b++ = im.copy;
+    for (const auto& c : p.module_columns)
+      if (c.ghosts) b = std::copy_n(&c.data[i * c.width], c.width, b);
+  };
+  auto unpack = [&](const double* b, std::size_t j) {
     p.id[j] = bits_id(b[0]);
     p.species[j] = static_cast<std::int32_t>(b[1]);
     p.radius[j] = b[2];
@@ -332,6 +317,39 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
         std::copy_n(q, c.width, &c.data[j * c.width]);
         q += c.width;
       }
+  };
+  // This rank's own images (every ghost, on one rank) are written straight from their
+  // originals below, never buffered.
+  const int me = dom_.rank;
+  std::vector<std::vector<double>>& out = empty_buffers();
+  for (int r = 0; r < dom_.nranks; ++r) {
+    if (r == me) continue;
+    out[r].resize(send_[r].size() * width);
+    for (std::size_t s = 0; s < send_[r].size(); ++s) describe(send_[r][s], &out[r][s * width]);
+  }
+  std::vector<double>& in = in_;
+  exchange(out, in);
+  // Remember the receive sizes of the per-step update; one more Alltoall gives them.
+  std::vector<int> scount(dom_.nranks);
+  for (int r = 0; r < dom_.nranks; ++r) scount[r] = static_cast<int>(send_[r].size());
+  recv_ghosts_.assign(dom_.nranks, 0);
+  MPI_Alltoall(scount.data(), 1, MPI_INT, recv_ghosts_.data(), 1, MPI_INT, dom_.comm);
+  recv_doubles_.resize(dom_.nranks);
+  for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
+  p.resize(p.nlocal + in.size() / width + send_[me].size());
+  // Ghosts by source rank, in send order (update_ghosts relies on it).
+  std::vector<double> scratch(width);
+  const double* b = in.data();
+  std::size_t j = p.nlocal;
+  for (int r = 0; r < dom_.nranks; ++r) {
+    if (r == me) {
+      for (const Image& im : send_[me]) {
+        describe(im, scratch.data());
+        unpack(scratch.data(), j++);
+      }
+      continue;
+    }
+    for (int g = 0; g < recv_ghosts_[r]; ++g, b += width) unpack(b, j++);
   }
 }
 
