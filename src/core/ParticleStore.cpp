@@ -50,9 +50,16 @@ constexpr std::size_t doubles() {
 }  // namespace
 
 void ParticleStore::resize(std::size_t n) {
-  for_each_column([&](auto& col, int width, bool) {
+  for_each_column([&](auto& col, int width, bool, bool) {
     using T = typename std::decay_t<decltype(col)>::value_type;
     col.resize(n * width, zero<T>());
+  });
+}
+
+void ParticleStore::resize_ghosts(std::size_t n) {
+  for_each_column([&](auto& col, int width, bool, bool ghosts) {
+    using T = typename std::decay_t<decltype(col)>::value_type;
+    col.resize((ghosts ? nlocal + n : nlocal) * width, zero<T>());
   });
 }
 
@@ -71,7 +78,7 @@ void ParticleStore::add(std::int64_t pid, int sp, double a, double m, const Vec3
 }
 
 void ParticleStore::copy(std::size_t from, std::size_t to) {
-  for_each_column([&](auto& col, int width, bool) {
+  for_each_column([&](auto& col, int width, bool, bool) {
     for (int w = 0; w < width; ++w) col[to * width + w] = col[from * width + w];
   });
 }
@@ -88,7 +95,7 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
     leaders.push_back(k);
     for (std::size_t j = k; !seen[j]; j = order[j]) seen[j] = true;
   }
-  for_each_column([&](auto& vec, int width, bool) {
+  for_each_column([&](auto& vec, int width, bool, bool) {
     using T = typename std::decay_t<decltype(vec)>::value_type;
     vec.resize(n * width);  // ghosts dropped
     std::vector<T> held(width);
@@ -120,7 +127,7 @@ int ParticleStore::ghost_column_width() const {
 
 std::size_t ParticleStore::packed_size() const {
   std::size_t n = 0;
-  for_each_column([&](const auto& col, int width, bool migrates) {
+  for_each_column([&](const auto& col, int width, bool migrates, bool) {
     using T = typename std::decay_t<decltype(col)>::value_type;
     if (migrates) n += width * doubles<T>();
   });
@@ -128,7 +135,7 @@ std::size_t ParticleStore::packed_size() const {
 }
 
 void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
-  for_each_column([&](const auto& col, int width, bool migrates) {
+  for_each_column([&](const auto& col, int width, bool migrates, bool) {
     if (!migrates) return;
     for (int w = 0; w < width; ++w) put(buf, col[i * width + w]);
   });
@@ -137,7 +144,7 @@ void ParticleStore::pack(std::size_t i, std::vector<double>& buf) const {
 std::size_t ParticleStore::unpack(const std::vector<double>& buf, std::size_t o) {
   const std::size_t i = size();
   resize(i + 1);
-  for_each_column([&](auto& col, int width, bool migrates) {
+  for_each_column([&](auto& col, int width, bool migrates, bool) {
     if (!migrates) return;
     for (int w = 0; w < width; ++w) o = get(buf, o, col[i * width + w]);
   });

@@ -30,7 +30,7 @@ struct ParticleStore {
   std::vector<Vec3> x, v;
   std::vector<Vec3> omega;  // rotation only
 
-  // owned only (ghost slots exist but are unused)
+  // owned only: no ghost slots (resize_ghosts)
   std::vector<Vec3> f;
   std::vector<Vec3> torque;           // rotation only
   std::vector<double> inv_inertia;    // rotation only
@@ -71,6 +71,9 @@ struct ParticleStore {
   std::size_t nghost() const { return size() - nlocal; }
 
   void resize(std::size_t n);  // keeps [0, min(n, size)) intact; new entries are zero
+  // nlocal owned particles and n ghosts: the owned-only columns keep nlocal entries (a gas's
+  // ghosts are a sixth of its particles on one rank, more on several: 80 B each with friction).
+  void resize_ghosts(std::size_t n);
   void add(std::int64_t pid, int sp, double a, double m, const Vec3& pos, const Vec3& vel);
   void copy(std::size_t from, std::size_t to);  // every field
   // Reorders owned particles: new slot k takes old slot order[k]. Ghosts are dropped.
@@ -82,10 +85,10 @@ struct ParticleStore {
   // Appends an owned particle from buf at offset; returns the new offset.
   std::size_t unpack(const std::vector<double>& buf, std::size_t offset);
 
-  // Every per-particle array once: visit(array, entries per particle, migrates). resize, copy,
-  // reordering and migration all walk this list, so a new column is one line here (ghosts
-  // carry only what forces read: HaloExchange::build_ghosts). Columns that do not migrate are
-  // derived from others (unpack recomputes them).
+  // Every per-particle array once: visit(array, entries per particle, migrates, ghosts). resize,
+  // copy, reordering and migration all walk this list, so a new column is one line here (ghosts
+  // carry only what forces read: HaloExchange::build_ghosts; the others have no ghost slots).
+  // Columns that do not migrate are derived from others (unpack recomputes them).
   template <class Visit>
   void for_each_column(Visit&& visit) { columns(*this, visit); }
   template <class Visit>
@@ -94,25 +97,26 @@ struct ParticleStore {
  private:
   template <class Self, class Visit>
   static void columns(Self& p, Visit& visit) {
-    visit(p.id, 1, true);
-    visit(p.species, 1, true);
-    visit(p.radius, 1, true);
-    visit(p.mass, 1, true);
-    visit(p.inv_mass, 1, false);
-    visit(p.x, 1, true);
-    visit(p.v, 1, true);
-    visit(p.x_build, 1, true);
-    visit(p.f, 1, true);  // after a rebuild at the end of a step the next kick needs F(t)
+    visit(p.id, 1, true, true);
+    visit(p.species, 1, true, true);
+    visit(p.radius, 1, true, true);
+    visit(p.mass, 1, true, true);
+    visit(p.inv_mass, 1, false, true);
+    visit(p.x, 1, true, true);
+    visit(p.v, 1, true, true);
+    visit(p.x_build, 1, true, false);
+    visit(p.f, 1, true, false);  // after a rebuild at the end of a step the next kick needs F(t)
     if (p.rotation) {
-      visit(p.omega, 1, true);
-      visit(p.torque, 1, true);
-      visit(p.inv_inertia, 1, false);
-      visit(p.wall_xi, p.walls, true);
+      visit(p.omega, 1, true, true);
+      visit(p.torque, 1, true, false);
+      visit(p.inv_inertia, 1, false, false);
+      visit(p.wall_xi, p.walls, true, false);
     }
-    if (p.impacts) visit(p.wall_impact, p.walls, true);
-    if (p.rolling) visit(p.wall_roll, p.walls, true);
-    if (p.copies) visit(p.le_copy, 1, true);
-    for (auto& c : p.module_columns) visit(c.data, c.width, true);
+    if (p.impacts) visit(p.wall_impact, p.walls, true, false);
+    if (p.rolling) visit(p.wall_roll, p.walls, true, false);
+    if (p.copies) visit(p.le_copy, 1, true, true);
+    // Every slot, ghosts' too, whether or not ghosts carry the values (zero then).
+    for (auto& c : p.module_columns) visit(c.data, c.width, true, true);
   }
 };
 

@@ -336,7 +336,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   MPI_Alltoall(scount.data(), 1, MPI_INT, recv_ghosts_.data(), 1, MPI_INT, dom_.comm);
   recv_doubles_.resize(dom_.nranks);
   for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
-  p.resize(p.nlocal + in.size() / width + send_[me].size());
+  p.resize_ghosts(in.size() / width + send_[me].size());
   // Ghosts by source rank, in send order (update_ghosts relies on it).
   std::vector<double> scratch(width);
   const double* b = in.data();
