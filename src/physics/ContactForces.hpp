@@ -1,7 +1,8 @@
 #pragma once
 // Particle-particle contacts: the linear spring-dashpot law over the neighbour list.
-// Owns the tangential history (one spring per list entry, only when friction is on) and
-// carries it across rebuilds and migrations by (owner id, partner id).
+// Owns the tangential history (with friction: a spring per owned pair on the entry that
+// evaluates it, per side for ghost pairs) and carries it across rebuilds and migrations by
+// (owner id, partner id).
 #include <vector>
 
 #include "core/Module.hpp"
@@ -113,7 +114,8 @@ class ContactForces : public Module {
   // rebuild. Found by post_rebuild, the only place history arrives from elsewhere.
   static constexpr std::uint32_t kSplitEnd = 0xffffffffu;
   std::vector<std::uint32_t> split_{kSplitEnd};
-  // Writes them; returns the entries in contact (in_contact), which hold every spring.
+  // Writes the receiving entries' springs (the exact negatives of their pairs', but in split_);
+  // returns the entries in contact (in_contact), which hold every spring.
   const std::vector<std::uint32_t>& sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const;
   mutable std::vector<std::uint32_t> in_contact_;  // sync_mirror_springs's list
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
