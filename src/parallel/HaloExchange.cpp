@@ -43,8 +43,8 @@ double HaloExchange::shear_velocity(const Image& im) const {
 void HaloExchange::exchange(std::vector<std::vector<double>>& out, std::vector<double>& in,
                             const std::vector<int>* known) {
   // Point to point from each destination's own buffer: no concatenated copy of everything sent
-  // (that copy was allocated at every ghost update), and this rank's part (periodic images of
-  // its own particles) is one copy, without MPI.
+  // (that copy was allocated at every ghost update), and this rank's part is one copy, without
+  // MPI (migration; the ghost exchanges write a rank's own images straight to their slots).
   const int n = dom_.nranks, me = dom_.rank;
   std::vector<int> scount(n), rcount(n);
   for (int r = 0; r < n; ++r) {
@@ -338,14 +338,14 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
   p.resize_ghosts(in.size() / width + send_[me].size());
   // Ghosts by source rank, in send order (update_ghosts relies on it).
-  std::vector<double> scratch(width);
+  scratch_.resize(width);
   const double* b = in.data();
   std::size_t j = p.nlocal;
   for (int r = 0; r < dom_.nranks; ++r) {
     if (r == me) {
       for (const Image& im : send_[me]) {
-        describe(im, scratch.data());
-        unpack(scratch.data(), j++);
+        describe(im, scratch_.data());
+        unpack(scratch_.data(), j++);
       }
       continue;
     }
@@ -392,9 +392,8 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
   // it went over the ghosts' data three times.
   const double* b = in_.data();
   std::size_t j = p.nlocal;
-  double own[32];  // one ghost's motion (wider module columns: a heap buffer)
-  std::vector<double> wide;
-  double* scratch = width <= std::size(own) ? own : (wide.resize(width), wide.data());
+  scratch_.resize(width);
+  double* scratch = scratch_.data();
   for (int r = 0; r < dom_.nranks; ++r) {
     if (r == me) {
       for (const Image& im : send_[me]) {

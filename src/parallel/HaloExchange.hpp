@@ -80,6 +80,7 @@ class HaloExchange {
   std::vector<int> recv_ghosts_;          // ghosts received per source rank
   std::vector<int> recv_doubles_;         // per-step update message sizes
   std::vector<int> recv_others_;          // the same without this rank's own images
+  std::vector<double> scratch_;           // one own image, written straight to its ghost slot
   double shear_base_ = 0;                 // offset - wrapped offset at the last build
   std::vector<std::vector<double>> out_;
   std::vector<double> in_;
