@@ -37,7 +37,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   constexpr bool fric = Parts::friction;
-  if (fric && xi_.size() != nl.size()) refill(xi_, nl.size(), Vec3::Zero());
+  constexpr bool rolls = Parts::rolling;  // rolling and twisting resistance (friction is on)
+  if (fric && springs_.entries() != nl.size()) springs_.reset(nl.size(), rolls);
   long contacts = 0;
   double worst = 0;
   std::int64_t worst_id = -1;
@@ -51,7 +52,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const std::int32_t* S = p.species.data();
   const std::uint32_t* start = nl.start.data();
   const std::uint32_t* partner = nl.partner.data();
-  Vec3* XI = fric ? xi_.data() : nullptr;
+  std::uint32_t* HELD = fric ? springs_.slots() : nullptr;  // per entry: its springs' slot
   if (touching_.size() != nl.size()) refill(touching_, nl.size(), 0);
   std::uint8_t* T = touching_.data();
   const std::int64_t* ID = p.id.data();
@@ -71,10 +72,6 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   // Bridges restitution: each contact's law follows from its impact speed, kept per entry.
   constexpr bool vdep = Parts::bridges;
   constexpr bool hertz = Parts::hertz;
-  // Rolling and twisting resistance: a torque spring per entry, history like xi_ (friction is on).
-  constexpr bool rolls = Parts::rolling;
-  if (rolls && roll_.size() != nl.size()) refill(roll_, nl.size(), Vec3::Zero());
-  Vec3* XR = rolls ? roll_.data() : nullptr;
   if (vdep && impact_.size() != nl.size()) refill(impact_, nl.size(), 0.0);
   double* U = vdep ? impact_.data() : nullptr;
   PairLaw contact_law;  // scratch for a contact's own law
@@ -180,13 +177,11 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     const double r2 = d.squaredNorm(), R = ai + A[j];
     if (r2 >= R * R) {  // contact just ended (listed for T[k]): forget the spring
       T[k] = 0;
-      if (fric) XI[k].setZero();
-      if (rolls) XR[k].setZero();
+      if (fric) springs_.release(HELD[k]);
       if (mk != kNoMirror) {
         T[mk] = 0;
         MIRROR[mk] = kNoMirror;  // no result, unless the exit correction below gives one
-        if (fric) XI[mk].setZero();
-        if (rolls) XR[mk].setZero();
+        if (fric) springs_.release(HELD[mk]);  // held only in split_
       }
       // The exact scheme's exit correction (see LinearSpringDashpot): only a pair that
       // touched at the last evaluation can have parted during the step.
@@ -269,10 +264,12 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     const double reff = hertz || rolls ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
     // Rolling: relative spin and reduced moment of inertia about the contact point (I + m a^2
     // = 1.4 m a^2 per solid sphere; ghosts carry no inverse inertia).
+    const std::uint32_t held = fric ? springs_.hold(HELD[k]) : 0;
     Rolling rl;
-    if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), XR[k]};
-    const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &XI[k] : nullptr, ft, true, &shift, reff, rolls ? &rl : nullptr);
-    if (rolls) XR[k] = rl.spring;
+    if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), springs_.roll(held)};
+    const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &springs_.xi(held) : nullptr, ft, true, &shift, reff,
+                              rolls ? &rl : nullptr);
+    if (rolls) springs_.roll(held) = rl.spring;
     if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
     // The lever arm's cross product, shared by both sides: j's, (-n) x (-f_t), is the same bits.
     Result& res = RES[e];
@@ -300,12 +297,13 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         Vec3 ftj;
         const PairLaw Lj = !own_law ? L : damping < 1 ? LinearSpringDashpot::damped(law_of(S[j], si, mk), damping)
                                                       : law_of(S[j], si, mk);
+        const std::uint32_t held_j = fric ? springs_.hold(HELD[mk]) : 0;
         Rolling rj;
-        if (rolls) rj = {-rl.spin, rl.inertia, XR[mk]};
+        if (rolls) rj = {-rl.spin, rl.inertia, springs_.roll(held_j)};
         double shift_j = 0;
-        const Vec3 fj = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &XI[mk] : nullptr, ftj, true, &shift_j,
-                                   reff, rolls ? &rj : nullptr);
-        if (rolls) XR[mk] = rj.spring;
+        const Vec3 fj = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &springs_.xi(held_j) : nullptr, ftj, true,
+                                   &shift_j, reff, rolls ? &rj : nullptr);
+        if (rolls) springs_.roll(held_j) = rj.spring;
         slot = own_slot();
         RES[slot].f = -fj;  // read negated
         RES[slot].shift = shift_j;
@@ -381,23 +379,25 @@ void ContactForces::final_integrate(Simulation& sim) {
 
 double ContactForces::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
-  sync_mirror_springs(p, sim.neighbors);
+  const NeighborList& nl = sim.neighbors;
+  const bool springs = has_springs(nl);
   double e = 0;
-  sim.neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
+  nl.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
     const std::size_t i = c.i, j = c.j, k = c.k;
     const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
-    const bool springs = law_.friction() && k < xi_.size();
+    const Springs s = springs ? spring_of(p, nl, k) : Springs{};
     e += 0.5 * law_.spring_energy(entry_law(p.species[i], p.species[j], k), m, c.delta,
                                   p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]), c.n,
-                                  springs ? &xi_[k] : nullptr,
-                                  springs && law_.rolling() && k < roll_.size() ? &roll_[k] : nullptr);  // half per side
+                                  springs ? &s.xi : nullptr, springs && law_.rolling() ? &s.roll : nullptr);  // half per side
   });
   return e;
 }
 
 void ContactForces::in_contact(std::vector<std::uint32_t>& out) const {
-  out.resize(touching_.size());
   std::size_t n = 0;
+  for (const std::uint8_t t : touching_) n += t != 0;
+  out.resize(n + 1);  // the loop below writes one past the last entry it keeps
+  n = 0;
   for (std::size_t k = 0; k < touching_.size(); ++k) {  // no branch: one entry in eight touches
     out[n] = static_cast<std::uint32_t>(k);
     n += touching_[k] != 0;
@@ -405,18 +405,34 @@ void ContactForces::in_contact(std::vector<std::uint32_t>& out) const {
   out.resize(n);
 }
 
+ContactForces::Springs ContactForces::spring_of(const ParticleStore& p, const NeighborList& nl, std::uint32_t k) const {
+  const auto held = [&](std::uint32_t slot, double sign) {
+    Springs s;
+    s.xi = sign * springs_.xi(slot);  // negation is exact
+    if (law_.rolling()) s.roll = sign * springs_.roll(slot);
+    return s;
+  };
+  if (springs_.slot(k) != ContactSprings::kNone) return held(springs_.slot(k), 1.0);
+  const std::uint32_t i = nl.row[k], j = nl.partner[k];
+  if (j >= i || j >= p.nlocal) return {};  // an evaluating entry out of contact, or a ghost pair's
+  for (std::uint32_t q = nl.start[j]; q < nl.start[j + 1]; ++q)  // the pair's evaluating entry
+    if (nl.partner[q] == i) return springs_.slot(q) != ContactSprings::kNone ? held(springs_.slot(q), -1.0) : Springs{};
+  return {};
+}
+
 void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& out) const {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   out.clear();
   if (nl.start.size() != p.nlocal + 1 || touching_.size() != nl.size()) return;
-  const bool fric = law_.friction() && xi_.size() == nl.size();
+  const bool fric = has_springs(nl);
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
-  const bool rolls = law_.rolling() && roll_.size() == nl.size();
-  for (const std::uint32_t k : sync_mirror_springs(p, nl)) {
-    const Vec3 xi = fric ? xi_[k] : Vec3::Zero(), roll = rolls ? roll_[k] : Vec3::Zero();
+  std::vector<std::uint32_t> entries;
+  in_contact(entries);
+  for (const std::uint32_t k : entries) {
+    const Springs s = fric ? spring_of(p, nl, k) : Springs{};
     const double u = vdep ? impact_[k] : 0.0;
-    if (!xi.isZero(0) || u != 0 || !roll.isZero(0)) out.push_back({p.id[nl.row[k]], p.id[nl.partner[k]], xi, u, roll});
+    if (!s.xi.isZero(0) || u != 0 || !s.roll.isZero(0)) out.push_back({p.id[nl.row[k]], p.id[nl.partner[k]], s.xi, u, s.roll});
   }
 }
 
@@ -427,14 +443,14 @@ PairLaw ContactForces::entry_law(int a, int b, std::uint32_t k) const {
 
 void ContactForces::pair_forces(const Simulation& sim, std::vector<PairForce>& out) const {
   const ParticleStore& p = sim.particles;
-  const bool fric = law_.friction();
-  sync_mirror_springs(p, sim.neighbors);
-  sim.neighbors.for_each_overlap(p, true, [&](const NeighborList::Overlap& c) {
+  const NeighborList& nl = sim.neighbors;
+  const bool fric = law_.friction(), springs = has_springs(nl);
+  nl.for_each_overlap(p, true, [&](const NeighborList::Overlap& c) {
     const std::size_t i = c.i, j = c.j, k = c.k;
     const double m = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
     Vec3 vrel = p.v[i] - p.v[j];
     if (fric) vrel -= (p.radius[i] * p.omega[i] + p.radius[j] * p.omega[j]).cross(c.n);  // id[i] < id[j], as in force()
-    Vec3 spring = fric && k < xi_.size() ? xi_[k] : Vec3::Zero(), ft;
+    Vec3 spring = springs ? spring_of(p, nl, k).xi : Vec3::Zero(), ft;
     // The step already advanced the spring: report it as it stands (no second increment).
     const Vec3 f = law_.force(entry_law(p.species[i], p.species[j], k), m, c.delta, c.n, vrel, fric ? &spring : nullptr,
                               ft, false, nullptr, p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]));
@@ -482,25 +498,6 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
       }
     if (mirror_[k] == kNoMirror) throw std::logic_error("ContactForces: neighbour list is not symmetric");
   });
-}
-
-const std::vector<std::uint32_t>& ContactForces::sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const {
-  std::vector<std::uint32_t>& entries = in_contact_;
-  entries.clear();
-  if (touching_.size() != nl.size()) return entries;
-  in_contact(entries);
-  const bool fric = law_.friction() && xi_.size() == nl.size(), rolls = law_.rolling() && roll_.size() == nl.size();
-  if (!(fric || rolls) || mirror_.size() != nl.size()) return entries;
-  const std::uint32_t* split = split_.data();
-  for (const std::uint32_t k : entries) {
-    const std::uint32_t i = nl.row[k], j = nl.partner[k];
-    if (j <= i || j >= p.nlocal) continue;  // the evaluating entries of owned pairs
-    while (*split < k) ++split;
-    if (*split == k) continue;  // both sides kept
-    if (fric) xi_[mirror_[k]] = -xi_[k];
-    if (rolls) roll_[mirror_[k]] = -roll_[k];
-  }
-  return entries;
 }
 
 void ContactForces::pre_rebuild(Simulation& sim) {
@@ -559,9 +556,8 @@ void ContactForces::post_rebuild(Simulation& sim) {
   if (!keeps_history()) return;
   auto& stash = sim.history;
   const bool fric = law_.friction(), vdep = law_.velocity_dependent(), rolls = law_.rolling();
-  if (fric) refill(xi_, nl.size(), Vec3::Zero());
+  if (fric) springs_.reset(nl.size(), rolls);
   if (vdep) refill(impact_, nl.size(), 0.0);
-  if (rolls) refill(roll_, nl.size(), Vec3::Zero());
   // The stash hashed by (owner, partner), at most half full; of equal keys (a small periodic box
   // can list one partner twice) the first.
   std::size_t size = 64;
@@ -575,28 +571,37 @@ void ContactForces::post_rebuild(Simulation& sim) {
       if (stash[q].owner == stash[at].owner && stash[q].partner == stash[at].partner) break;
     }
   }
-  auto restore = [&](std::uint32_t k, std::int64_t owner, std::int64_t partner) {
+  const HistoryEntry none{0, 0, Vec3::Zero()};
+  auto find = [&](std::int64_t owner, std::int64_t partner) -> const HistoryEntry& {
     for (std::uint64_t h = pair_hash(owner, partner) & mask;; h = (h + 1) & mask) {
       const std::uint32_t q = table_[h];
-      if (q == kEmpty) return;  // a new contact (or one that began in the drift)
+      if (q == kEmpty) return none;  // a new contact (or one that began in the drift)
       const HistoryEntry& e = stash[q];
-      if (e.owner != owner || e.partner != partner) continue;
-      if (fric) xi_[k] = e.xi;
-      if (vdep) impact_[k] = e.impact;
-      if (rolls) roll_[k] = e.roll;
-      return;
+      if (e.owner == owner && e.partner == partner) return e;
     }
+  };
+  std::uint32_t* held = springs_.slots();
+  auto restore = [&](std::uint32_t k, const HistoryEntry& e) {
+    if (vdep) impact_[k] = e.impact;
+    if (!fric) return;
+    const std::uint32_t slot = springs_.hold(held[k]);
+    springs_.xi(slot) = e.xi;
+    if (rolls) springs_.roll(slot) = e.roll;
   };
   // Touching pairs only (a spring separated during the drift is gone), both sides of an owned
   // pair, then the pairs whose two sides did not arrive as exact negatives (see split_).
   split_.clear();
   for (const std::uint32_t k : touching_now_) {
     const std::uint32_t i = nl.row[k], j = nl.partner[k], q = mirror_[k];
-    restore(k, p.id[i], p.id[j]);
+    const HistoryEntry& a = find(p.id[i], p.id[j]);
+    restore(k, a);
     if (q == kNoMirror) continue;
-    restore(q, p.id[j], p.id[i]);
-    if ((fric && xi_[q] != -xi_[k]) || (rolls && roll_[q] != -roll_[k]) || (vdep && impact_[q] != impact_[k]))
+    const HistoryEntry& b = find(p.id[j], p.id[i]);
+    if (vdep) impact_[q] = b.impact;
+    if ((fric && b.xi != -a.xi) || (rolls && b.roll != -a.roll) || (vdep && b.impact != a.impact)) {
       split_.push_back(k);
+      restore(q, b);  // its own springs (only the evaluating entry's otherwise)
+    }
   }
   split_.push_back(kSplitEnd);
   stash.clear();

@@ -10,6 +10,7 @@
 #include "core/NeighborList.hpp"
 #include "core/ParticleStore.hpp"
 #include "parallel/HaloExchange.hpp"
+#include "physics/ContactSprings.hpp"
 #include "physics/DampingLimit.hpp"
 #include "physics/LinearSpringDashpot.hpp"
 
@@ -100,13 +101,12 @@ class ContactForces : public Module {
   std::vector<std::uint32_t> evaluating_;  // force(): those of them that evaluate their pair
   std::vector<Result> results_;            // force(): one per evaluating entry, then extra
   std::vector<Vec3> result_roll_;          // rolling resistance: the rolling torque, per result
-  // Tangential spring per neighbour-list entry. A pair of owned particles keeps its spring on
-  // its evaluating entry; the receiving entry's is its exact negative, written only when
-  // something reads it (sync_mirror_springs), so the pair loop does not touch the partner's
-  // entry at random for every contact. Pairs in split_ keep both, each side evolving its own.
-  mutable std::vector<Vec3> xi_;
+  // Tangential (and rolling) springs, only where there is contact. A pair of owned particles
+  // keeps its springs on its evaluating entry; its receiving entry's are their exact negatives
+  // (spring_of), so the pair loop never touches the partner's entry for them. Pairs in split_
+  // keep a spring on each entry, each side evolving its own.
+  ContactSprings springs_;
   std::vector<double> impact_;  // Bridges law: impact normal speed per entry in contact (0: none)
-  mutable std::vector<Vec3> roll_;  // rolling resistance: torque spring per entry, kept as xi_
   // The evaluating entries (ascending, then kSplitEnd) of owned pairs whose two sides' history
   // came from independent evaluations (across a rank or periodic boundary before a migration)
   // and is not an exact negation: springs or impact speeds that may differ in the last bits.
@@ -114,10 +114,12 @@ class ContactForces : public Module {
   // rebuild. Found by post_rebuild, the only place history arrives from elsewhere.
   static constexpr std::uint32_t kSplitEnd = 0xffffffffu;
   std::vector<std::uint32_t> split_{kSplitEnd};
-  // Writes the receiving entries' springs (the exact negatives of their pairs', but in split_);
-  // returns the entries in contact (in_contact), which hold every spring.
-  const std::vector<std::uint32_t>& sync_mirror_springs(const ParticleStore& p, const NeighborList& nl) const;
-  mutable std::vector<std::uint32_t> in_contact_;  // sync_mirror_springs's list
+  struct Springs {
+    Vec3 xi = Vec3::Zero(), roll = Vec3::Zero();
+  };
+  // The springs of list entry k (zero without contact), whichever side of its pair it is on.
+  Springs spring_of(const ParticleStore& p, const NeighborList& nl, std::uint32_t k) const;
+  bool has_springs(const NeighborList& nl) const { return law_.friction() && springs_.entries() == nl.size(); }
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
   PendingShifts shifts_;  // exact scheme: moves of this step
   std::vector<std::uint32_t> table_;     // post_rebuild: the history stash hashed by (owner, partner)

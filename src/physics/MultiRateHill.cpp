@@ -200,7 +200,9 @@ void MultiRateHill::post_rebuild(Simulation& sim) {
   // The new list can hold pairs the long step's classification never saw: each free particle
   // looks again, over what is left of the long step (every particle is at the present time).
   const double delta = delta_;
-  delta_ = t0_ + delta - sim.time;
+  // At the long step's last step what is left is zero, or a rounding below it: never negative
+  // (needs_contact_steps clamps times into [0, delta_]).
+  delta_ = std::max(0.0, t0_ + delta - sim.time);
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (!on_contact_steps(mode_of(p, i)) && needs_contact_steps(sim, i)) {
       set_mode(p, i, kWoken);  // its state is the exact present one, as a particle woken in pre_force
