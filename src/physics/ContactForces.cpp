@@ -92,10 +92,10 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   // velocity jump +-gamma_dot L_y: the boundary's share of the shear work (the rest comes with
   // particles crossing, HaloExchange::shear_energy). Half on each side of the pair.
   const bool sheared = !Plain && sim.domain.shear.enabled;
-  const double y_lo = sim.domain.lo[1], y_hi = sim.domain.hi[1];
   const double half_jump_dt = sheared ? 0.5 * sim.domain.shear.rate * sim.domain.length[1] * dt : 0.0;
   double boundary_work = 0;
-  auto across = [&](std::uint32_t j) { return X[j][1] >= y_hi ? 1.0 : X[j][1] < y_lo ? -1.0 : 0.0; };
+  const std::int8_t* SIDE = image_side_.data() - p.nlocal;  // a ghost's side, by its slot
+  auto across = [&](std::uint32_t j) { return double(SIDE[j]); };
   // Ascending slots (all, or the multi-rate integrator's targets): a pair's result is written
   // before its partner's entry reads it.
   const Simulation::TargetList targets = sim.target_list();
@@ -522,6 +522,13 @@ void ContactForces::post_rebuild(Simulation& sim) {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
   build_mirrors(p, nl);
+  // Which ghosts are images across the sheared boundary: now, with every owned particle inside
+  // the box, an image is outside it. Between rebuilds particles drift past the faces (they are
+  // wrapped at the next migration), so a ghost's position then no longer tells.
+  image_side_.clear();
+  if (sim.domain.shear.enabled)
+    for (std::size_t j = p.nlocal; j < p.size(); ++j)
+      image_side_.push_back(p.x[j][1] >= sim.domain.hi[1] ? 1 : p.x[j][1] < sim.domain.lo[1] ? -1 : 0);
   // Pairs already touching across a rebuild are not new collisions.
   refill(touching_, nl.size(), 0);
   touching_now_.clear();

@@ -121,6 +121,9 @@ class ContactForces : public Module {
   Springs spring_of(const ParticleStore& p, const NeighborList& nl, std::uint32_t k) const;
   bool has_springs(const NeighborList& nl) const { return law_.friction() && springs_.entries() == nl.size(); }
   std::vector<std::uint8_t> touching_;  // per entry: in contact at the last evaluation
+  // Sheared runs, per ghost: +1 (-1) for an image across the upper (lower) y face, 0 otherwise;
+  // set at each rebuild (boundary work, force()).
+  std::vector<std::int8_t> image_side_;
   PendingShifts shifts_;  // exact scheme: moves of this step
   std::vector<std::uint32_t> table_;     // post_rebuild: the history stash hashed by (owner, partner)
   std::vector<std::uint32_t> touching_now_;  // post_rebuild: the entries whose pair touches
