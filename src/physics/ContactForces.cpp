@@ -94,7 +94,9 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const bool sheared = !Plain && sim.domain.shear.enabled;
   const double half_jump_dt = sheared ? 0.5 * sim.domain.shear.rate * sim.domain.length[1] * dt : 0.0;
   double boundary_work = 0;
-  const std::int8_t* SIDE = image_side_.data() - p.nlocal;  // a ghost's side, by its slot
+  if (sheared && image_side_.size() != p.nghost())
+    throw std::logic_error("ContactForces: ghosts changed without a rebuild (image sides unknown)");
+  const std::int8_t* SIDE = sheared ? image_side_.data() - p.nlocal : nullptr;  // a ghost's side, by its slot
   auto across = [&](std::uint32_t j) { return double(SIDE[j]); };
   // Ascending slots (all, or the multi-rate integrator's targets): a pair's result is written
   // before its partner's entry reads it.
