@@ -153,6 +153,18 @@ struct RuntimeParts {
   bool exact, hertz, friction, rolling, bridges, clip;
 };
 
+// a where mask is all ones, b where it is zero: a lane-wise bit select in vector registers.
+// (Per component through general registers, the picked Vec3 was put together again through
+// memory, and the next load of it waited on two stores it could not forward from.)
+[[gnu::always_inline]] inline Vec3 select_lanes(std::int64_t mask, const Vec3& a, const Vec3& b) {
+  using Lanes = double __attribute__((vector_size(32)));
+  using Bits = std::int64_t __attribute__((vector_size(32)));
+  const Lanes va = {a[0], a[1], a[2], 0.0}, vb = {b[0], b[1], b[2], 0.0};
+  const Bits m = {mask, mask, mask, mask};
+  const Lanes r = reinterpret_cast<Lanes>((reinterpret_cast<Bits>(va) & m) | (reinterpret_cast<Bits>(vb) & ~m));
+  return Vec3(r[0], r[1], r[2]);
+}
+
 class LinearSpringDashpot {
  public:
   // The per-pair constants are computed out of line (LinearSpringDashpot.cpp, without fused
@@ -324,14 +336,9 @@ class LinearSpringDashpot {
     const Vec3 dir = ft / std::sqrt(ft2);
     const double slide = L.mu_d * std::max(fn, 0.0);
     const Vec3 ft_slide = slide * dir, s_slide = -(slide / kt) * dir;
-    const std::uint64_t sliding = -static_cast<std::uint64_t>(ft2 > cap * cap);
-    auto pick = [sliding](double a, double b) {
-      return std::bit_cast<double>((std::bit_cast<std::uint64_t>(a) & sliding) | (std::bit_cast<std::uint64_t>(b) & ~sliding));
-    };
-    for (int d = 0; d < 3; ++d) {
-      ft[d] = pick(ft_slide[d], ft[d]);
-      s[d] = pick(s_slide[d], s[d]);
-    }
+    const std::int64_t sliding = -static_cast<std::int64_t>(ft2 > cap * cap);
+    ft = select_lanes(sliding, ft_slide, ft);
+    s = select_lanes(sliding, s_slide, s);
     *xi = s;
     if (parts.rolling && roll) {
       const double kn = parts.hertz ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;  // d f_n / d delta
