@@ -81,7 +81,7 @@ class NeighborList {
   void sort_into_cells(std::size_t ncells);  // cell_start_, cell_items_ from cell_of_
   void fill_rows();                          // row from start, after either build
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
-  std::vector<Eigen::Vector4d> sorted_;
+  std::vector<double> sx_, sy_, sz_, sa_;  // positions and radii in cell order (build)
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs_;  // the half-stencil build's pairs
   std::vector<std::uint32_t> fill_;
 };
