@@ -1,6 +1,7 @@
 // Hard cases (spec section 5): each either stays bounded or stops with a clear message.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -190,6 +191,34 @@ TEST(HardCases, HeadOnImpactAtHundredTimesTheSpeedStopsWithAClearMessage) {
       EXPECT_NE(message.find("rank 0"), std::string::npos) << message;
     }
   }
+}
+
+TEST(HardCases, ANonFinitePositionVelocityOrSpinStopsTheRunWithinAStep) {
+  // Two free frictional spheres far apart: nothing carries a NaN from one quantity into
+  // another (a free particle's spin never reaches its velocity or position), so each of x, v
+  // and omega must be checked itself. The guard trips at the step whose state holds the NaN
+  // (or the drift that follows it) and every rank stops at the next step's reduction, or at
+  // once when the drift itself shows it.
+  for (int what = 0; what < 3; ++what)
+    for (double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+      auto sim = make_sim(kPair, {"species.0.mu_s=0.5", "species.0.mu_d=0.5"});
+      sim->particles.add(0, 0, kA, kM, Vec3(-0.02, 0, 0), Vec3(0.01, 0, 0));
+      sim->particles.add(1, 0, kA, kM, Vec3(0.02, 0, 0), Vec3(0, 0.01, 0));
+      sim->setup();
+      for (int s = 0; s < 10; ++s) sim->step();
+      ASSERT_TRUE(sim->particles.rotation);
+      (what == 0 ? sim->particles.x : what == 1 ? sim->particles.v : sim->particles.omega)[1][2] = bad;
+      std::string message;
+      long steps = 0;
+      try {
+        for (; steps < 5; ++steps) sim->step();
+      } catch (const GuardError& e) {
+        message = e.what();
+      }
+      EXPECT_LE(steps, 1) << (what == 0 ? "x" : what == 1 ? "v" : "omega") << " = " << bad << ": stopped after " << steps << " steps";
+      EXPECT_NE(message.find("non-finite"), std::string::npos) << message;
+      EXPECT_NE(message.find("particle 1"), std::string::npos) << message;
+    }
 }
 
 TEST(HardCases, ParticlesAimedAtTheMoonletCentreBounceBack) {

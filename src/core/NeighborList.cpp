@@ -193,13 +193,13 @@ void NeighborList::build(const ParticleStore& p, const Decomposition& dom, doubl
   }
   for (std::size_t i = 0; i < p.nlocal; ++i) start[i + 1] += start[i];
   partner.resize(start[p.nlocal]);
+  row.resize(partner.size());  // written with the partners: a pass of its own cost more than the stores
   fill_.assign(start.begin(), start.end() - 1);
   for (const auto& [i, j] : pairs_) {
-    if (i < nlocal) partner[fill_[i]++] = j;
-    if (j < nlocal) partner[fill_[j]++] = i;
+    if (i < nlocal) row[fill_[i]] = i, partner[fill_[i]++] = j;
+    if (j < nlocal) row[fill_[j]] = j, partner[fill_[j]++] = i;
   }
   for (std::size_t i = 0; i < p.nlocal; ++i) sort_by_id(p, partner.data() + start[i], start[i + 1] - start[i]);
-  fill_rows();
 }
 
 void NeighborList::fill_rows() {

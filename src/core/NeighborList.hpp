@@ -79,7 +79,7 @@ class NeighborList {
   void build_by_size_class(const ParticleStore& p, const Decomposition& dom, double range, double skin, double amin,
                            double amax);
   void sort_into_cells(std::size_t ncells);  // cell_start_, cell_items_ from cell_of_
-  void fill_rows();                          // row from start, after either build
+  void fill_rows();                          // row from start (the size-class build)
   std::vector<std::uint32_t> cell_start_, cell_items_, cell_of_;
   std::vector<double> sx_, sy_, sz_, sa_;  // positions and radii in cell order (build)
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs_;  // the half-stencil build's pairs

@@ -221,6 +221,7 @@ void Simulation::step() {
   stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
   max_drift2 = 0;
   max_speed = -1;
+  state_summed = false;
   ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
   {

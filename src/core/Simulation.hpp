@@ -70,6 +70,11 @@ class Simulation {
   // An integrator may also give a bound on every owned particle's speed relative to the
   // imposed flow this step (-1: none); the tunnelling guard then needs no scan.
   double max_speed = -1;
+  // An integrator that touched every owned particle's position, velocity and spin this step may
+  // give the sum of all their components (state_summed): non-finite iff one of them is NaN or
+  // infinite, the check Guards otherwise makes with a pass of its own over the particles.
+  double state_sum = 0;
+  bool state_summed = false;
 
   // The owned particles that get forces this step (ascending slots), or all of them. A
   // multi-rate integrator narrows it between its long steps (Module::pre_force). A force

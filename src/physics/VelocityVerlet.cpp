@@ -15,16 +15,20 @@ void VelocityVerlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F
 // The half-step kick of the spins. On raw pointers: through the vectors the compiler reloads
 // each one's data pointer for every particle (a store to omega might move them), which made
 // this loop ~17 instructions a particle and a tenth of a frictional gas's integration time.
-static void kick_spins(ParticleStore& p, double h) {
+// Returns the sum of the new spins' components (Guards: a NaN or an infinity anywhere makes it
+// non-finite).
+static double kick_spins(ParticleStore& p, double h) {
   Vec3* W = p.omega.data();
   const Vec3* TQ = p.torque.data();
   const double* II = p.inv_inertia.data();
+  double s0 = 0, s1 = 0, s2 = 0;  // one chain of adds per component: no loop-carried wait
   for (std::size_t i = 0, n = p.nlocal; i < n; ++i) {
     const double c = h * II[i];
-    W[i][0] += c * TQ[i][0];
-    W[i][1] += c * TQ[i][1];
-    W[i][2] += c * TQ[i][2];
+    s0 += W[i][0] += c * TQ[i][0];
+    s1 += W[i][1] += c * TQ[i][1];
+    s2 += W[i][2] += c * TQ[i][2];
   }
+  return s0 + s1 + s2;
 }
 
 // Kick, Coriolis rotation and drift are fused into one pass over the particles: the ring scene
@@ -43,10 +47,12 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   const Vec3* XB = p.x_build.data();
   const double stream = sim.stream;
   // The largest displacement since the last rebuild (see Simulation::stream), with two
-  // accumulators: halves the max-reduction dependency chain.
-  double m0 = 0, m1 = 0;
+  // accumulators: halves the max-reduction dependency chain. Likewise the sum of the new
+  // positions' components, for Guards' finiteness check (free in this memory-bound pass, where
+  // a scan of its own read every position again).
+  double m0 = 0, m1 = 0, s0 = 0, s1 = 0;
   const std::size_t n = p.nlocal;
-  auto advance = [&](std::size_t i) {
+  auto advance = [&](std::size_t i, double& sum) {
     const double k = h * IM[i];
     double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1], vz = planar ? 0.0 : V[i][2] + k * F[i][2];
     if (rotating) {  // Coriolis, dv/dt = 2 omega (vy, -vx) over dt/2: a clockwise rotation by omega dt
@@ -61,17 +67,19 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
     X[i][0] = x;
     X[i][1] = y;
     X[i][2] = z;
+    sum += (x + y) + z;
     const double dx = x - XB[i][0] - stream * XB[i][1], dy = y - XB[i][1], dz = z - XB[i][2];
     return dx * dx + dy * dy + dz * dz;
   };
   std::size_t i = 0;
   for (; i + 1 < n; i += 2) {
-    m0 = std::max(m0, advance(i));
-    m1 = std::max(m1, advance(i + 1));
+    m0 = std::max(m0, advance(i, s0));
+    m1 = std::max(m1, advance(i + 1, s1));
   }
-  if (i < n) m0 = std::max(m0, advance(i));
+  if (i < n) m0 = std::max(m0, advance(i, s0));
   sim.max_drift2 = std::max(m0, m1);
-  if (p.rotation) kick_spins(p, h);
+  position_sum_ = s0 + s1;
+  if (p.rotation) kick_spins(p, h);  // their sum is taken after the step's second kick
 }
 
 void VelocityVerlet::final_integrate(Simulation& sim) {
@@ -83,6 +91,7 @@ void VelocityVerlet::final_integrate(Simulation& sim) {
   const Vec3* F = p.f.data();
   const double* IM = p.inv_mass.data();
   const std::size_t n = p.nlocal;
+  double s0 = 0, s1 = 0, s2 = 0;  // the new velocities' sum, one chain of adds per component
   for (std::size_t i = 0; i < n; ++i) {
     double vx = V[i][0], vy = V[i][1];
     if (rotating) {
@@ -91,11 +100,15 @@ void VelocityVerlet::final_integrate(Simulation& sim) {
       vy = ry;
     }
     const double k = h * IM[i];
-    V[i][0] = vx + k * F[i][0];
-    V[i][1] = vy + k * F[i][1];
+    s0 += V[i][0] = vx + k * F[i][0];
+    s1 += V[i][1] = vy + k * F[i][1];
     if (!planar) V[i][2] += k * F[i][2];
+    s2 += V[i][2];
   }
-  if (p.rotation) kick_spins(p, h);
+  double sum = s0 + s1 + s2;
+  if (p.rotation) sum += kick_spins(p, h);
+  sim.state_sum = position_sum_ + sum;
+  sim.state_summed = true;
 }
 
 }  // namespace cassini

@@ -43,6 +43,7 @@ class VelocityVerlet : public Module {
  private:
   bool planar_;
   double omega_ = 0;
+  double position_sum_ = 0;  // the sum of the positions' components after this step's drift (Simulation::state_sum)
 };
 
 }  // namespace cassini
