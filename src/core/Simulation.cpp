@@ -90,6 +90,7 @@ void Simulation::check_initial_overlaps() {
 }
 
 void Simulation::rebuild() {
+  forces_cleared = false;  // arrivals and new particles bring forces of their own
   {
     auto t = timers.scope(StageTimers::Neighbour);  // the modules' lists and histories are part of it
     for (Module* m : stage_[4]) m->pre_rebuild(*this);
@@ -191,8 +192,10 @@ bool Simulation::remove_stillborn() {
 void Simulation::compute_forces() {
   ParticleStore& p = particles;
   if (all_targets) {
-    std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
-    if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
+    if (!forces_cleared) {
+      std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
+      if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
+    }
   } else {
     for (const std::uint32_t i : targets) {
       p.f[i].setZero();
@@ -221,7 +224,7 @@ void Simulation::step() {
   stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
   max_drift2 = 0;
   max_speed = -1;
-  state_summed = false;
+  state_summed = forces_cleared = false;
   ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
   {
@@ -280,7 +283,10 @@ void Simulation::check_guards() {
   MPI_Allgatherv(guard_message_.data(), len, MPI_CHAR, all.data(), lens.data(), displ.data(), MPI_CHAR, domain.comm);
   std::string msg;
   for (int r = 0; r < domain.nranks; ++r)
-    if (lens[r] > 0) msg += (msg.empty() ? "" : "\n") + all.substr(displ[r], lens[r]);
+    if (lens[r] > 0) {
+      if (!msg.empty()) msg += '\n';
+      msg.append(all, displ[r], lens[r]);
+    }
   throw GuardError(msg);
 }
 

@@ -75,6 +75,10 @@ class Simulation {
   // infinite, the check Guards otherwise makes with a pass of its own over the particles.
   double state_sum = 0;
   bool state_summed = false;
+  // The integrator zeroed every owned particle's force and torque as its first kick read them
+  // (in the same pass, where a fill of its own went over them again): the force stage need not.
+  // A rebuild clears it (particles arrive and move).
+  bool forces_cleared = false;
 
   // The owned particles that get forces this step (ascending slots), or all of them. A
   // multi-rate integrator narrows it between its long steps (Module::pre_force). A force

@@ -16,10 +16,11 @@ void VelocityVerlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F
 // each one's data pointer for every particle (a store to omega might move them), which made
 // this loop ~17 instructions a particle and a tenth of a frictional gas's integration time.
 // Returns the sum of the new spins' components (Guards: a NaN or an infinity anywhere makes it
-// non-finite).
-static double kick_spins(ParticleStore& p, double h) {
+// non-finite). clear: the torques are zeroed once read (the step's first kick; see
+// Simulation::forces_cleared).
+static double kick_spins(ParticleStore& p, double h, bool clear) {
   Vec3* W = p.omega.data();
-  const Vec3* TQ = p.torque.data();
+  Vec3* TQ = p.torque.data();
   const double* II = p.inv_inertia.data();
   double s0 = 0, s1 = 0, s2 = 0;  // one chain of adds per component: no loop-carried wait
   for (std::size_t i = 0, n = p.nlocal; i < n; ++i) {
@@ -27,6 +28,7 @@ static double kick_spins(ParticleStore& p, double h) {
     s0 += W[i][0] += c * TQ[i][0];
     s1 += W[i][1] += c * TQ[i][1];
     s2 += W[i][2] += c * TQ[i][2];
+    if (clear) TQ[i].setZero();
   }
   return s0 + s1 + s2;
 }
@@ -42,7 +44,7 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   const double c = std::cos(omega_ * dt), s = std::sin(omega_ * dt);
   Vec3* X = p.x.data();
   Vec3* V = p.v.data();
-  const Vec3* F = p.f.data();
+  Vec3* F = p.f.data();  // zeroed once read: the step's forces start from zero (Simulation::forces_cleared)
   const double* IM = p.inv_mass.data();
   const Vec3* XB = p.x_build.data();
   const double stream = sim.stream;
@@ -55,6 +57,7 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   auto advance = [&](std::size_t i, double& sum) {
     const double k = h * IM[i];
     double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1], vz = planar ? 0.0 : V[i][2] + k * F[i][2];
+    F[i].setZero();
     if (rotating) {  // Coriolis, dv/dt = 2 omega (vy, -vx) over dt/2: a clockwise rotation by omega dt
       const double rx = c * vx + s * vy, ry = c * vy - s * vx;
       vx = rx;
@@ -79,7 +82,8 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   if (i < n) m0 = std::max(m0, advance(i, s0));
   sim.max_drift2 = std::max(m0, m1);
   position_sum_ = s0 + s1;
-  if (p.rotation) kick_spins(p, h);  // their sum is taken after the step's second kick
+  if (p.rotation) kick_spins(p, h, true);  // their sum is taken after the step's second kick
+  sim.forces_cleared = true;
 }
 
 void VelocityVerlet::final_integrate(Simulation& sim) {
@@ -106,7 +110,7 @@ void VelocityVerlet::final_integrate(Simulation& sim) {
     s2 += V[i][2];
   }
   double sum = s0 + s1 + s2;
-  if (p.rotation) sum += kick_spins(p, h);
+  if (p.rotation) sum += kick_spins(p, h, false);
   sim.state_sum = position_sum_ + sum;
   sim.state_summed = true;
 }
