@@ -71,6 +71,36 @@ void LinearSpringDashpot::set_damping(PairLaw& L, double eta, double half) const
   L.gamma_eff = -std::expm1(-2 * eta * dt) / dt;  // (1 - rho^2) / dt
   L.exp_eta = std::exp(eta * dt);
   L.e = std::exp(-eta * L.t_c);
+  set_tangential(L);
+}
+
+// A sticking contact's tangential displacement xi is a damped oscillator too: solid spheres'
+// contact points move relative to each other under f_t as a mass m_t = m / 3.5 would (their
+// translation and their spin together: 1/m + a_i^2/I_i + a_j^2/I_j = 3.5/m; a wall likewise),
+// so xi'' = -(k_t xi + gamma_t xi') / m_t. Its samples obey the same two-step recurrence as the
+// normal overlap's, with the damping rate eta_t = gamma_t / 2 m_t and frequency w_t^2 = k_t / m_t
+// - eta_t^2; with the default ratios (k_t / k = gamma_t / gamma = 2/7) it is the normal
+// oscillator itself. The discrete constants, per reduced mass: k_t,eff = m_t (1 - 2 rho c +
+// rho^2) / dt^2 and gamma_t,eff = m_t (1 - rho^2) / dt, c = cos(w_t dt) (cosh when overdamped).
+// A static load then stretches the spring by f / k_t,eff: k_t,eff / k_eff = 2/7 by default.
+void LinearSpringDashpot::set_tangential(PairLaw& L) const {
+  const double dt = dt_;
+  const double same_k = 3.5 * L.kt_ratio - 1, same_g = 3.5 * L.gammat_ratio - 1;
+  if (std::abs(same_k) < 1e-12 && std::abs(same_g) < 1e-12) {
+    L.kt_eff = L.k_eff / 3.5;
+    L.gt_eff = L.gamma_eff / 3.5;
+    L.eta_t = L.eta;
+    L.w2_t = L.omega * L.omega;
+    return;
+  }
+  L.eta_t = 1.75 * L.gammat_ratio * L.gamma_per_mass;
+  L.w2_t = 3.5 * L.kt_ratio * L.k_per_mass - L.eta_t * L.eta_t;
+  const double rho = std::exp(-L.eta_t * dt), one_minus_rho = -std::expm1(-L.eta_t * dt);
+  // 1 - c without cancellation: 2 sin^2(w dt / 2), or -2 sinh^2 when overdamped.
+  const double half = 0.5 * std::sqrt(std::abs(L.w2_t)) * dt;
+  const double one_minus_c = L.w2_t >= 0 ? 2 * std::sin(half) * std::sin(half) : -2 * std::sinh(half) * std::sinh(half);
+  L.kt_eff = (one_minus_rho * one_minus_rho + 2 * rho * one_minus_c) / (dt * dt) / 3.5;
+  L.gt_eff = -std::expm1(-2 * L.eta_t * dt) / dt / 3.5;
 }
 
 // The law of one contact whose impact had normal speed u, for a pair whose restitution
