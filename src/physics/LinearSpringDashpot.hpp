@@ -298,8 +298,10 @@ class LinearSpringDashpot {
       chord = (overlap(since + dt) - target) / dt;
       r.contact_time = since;
       // k delta + gamma d(delta)/dt at this instant (a Coulomb limit for a spring that slides).
-      const double wave = std::exp(-L.eta * since), rate = u * wave * std::cos(L.omega * since) - L.eta * target;
-      r.fn_now = m * (L.k_per_mass * target + L.gamma_per_mass * rate);
+      if (parts.friction) {
+        const double wave = std::exp(-L.eta * since), rate = u * wave * std::cos(L.omega * since) - L.eta * target;
+        r.fn_now = m * (L.k_per_mass * target + L.gamma_per_mass * rate);
+      }
     } else {  // ended during the last step: delta_{n-1} = before and delta_n = delta lie on
       // delta(s) = exp(-eta s) (before cos(omega s) + q sin(omega s)), s from the last step,
       // which reaches zero at omega s = pi - atan2(before, q) with speed -|.| omega exp(-eta s).
