@@ -55,6 +55,15 @@ def summary(run_dir):
         return json.load(f)  # raises on inf/NaN or broken JSON
 
 
+def complete_frames(run_dir):
+    """Every snap_*.h5md must open and carry parameters@complete; returns their names."""
+    names = sorted(f for f in os.listdir(run_dir) if f.endswith(".h5md") and f.startswith("snap_"))
+    for n in names:
+        with h5py.File(os.path.join(run_dir, n), "r") as f:
+            assert f["parameters"].attrs["complete"] in (b"yes", "yes"), n
+    return names
+
+
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
 shutil.copytree(case_dir, os.path.join(work, "gas"))
@@ -84,6 +93,21 @@ check("an existing run directory without --force is refused", rc == 2 and "--for
 rc, out, _ = run(["gas", "--out", "r1", "--force", *short])
 check("--force replaces a run directory cassini made", rc == 0 and not os.path.exists(f"{work}/r1/notes.txt"), out)
 
+# --force never deletes an input the case names: particles.file in a run directory, the flow cache
+rc, out, _ = run(["gas", "--out", "holder", *short])
+write(f"{work}/holder/p.txt", "0.02 0.01 0.01 0 0 0 0.0005\n")
+case = open(f"{work}/gas/case.toml").read()
+case = case.replace('init = "random"', f'init = "file"\nfile = "{work}/holder/p.txt"').replace("volume_fraction = 0.3\n", "")
+write(f"{work}/fromfile/case.toml", case.replace("velocity_sigma = 0.1             # m/s per component\n", ""))
+rc, out, _ = run(["fromfile", "--out", "holder", "--force", *short])
+check("--force on the run directory holding particles.file is refused, the file kept",
+      rc == 2 and "particles.file" in out and os.path.exists(f"{work}/holder/p.txt"), out)
+shutil.copytree(os.path.join(os.path.dirname(case_dir), "clogging"), f"{work}/clog")  # with its flow cache, if any
+rc, out, _ = run(["gas", "--out", "clog/other-cache", *short])
+rc, out, _ = run(["clog", "--out", "clog/other-cache", "--force", "--set", 'flow.cache="other-cache"'])
+check("--force on the flow cache directory is refused", rc == 2 and "flow.cache" in out
+      and os.path.exists(f"{work}/clog/other-cache/summary.json"), out)
+
 # ---- 2. restarts check what they continue, and never delete their source
 snap = "r1/snap_000000050.h5md"
 rc, out, _ = run(["gas", "--restart", snap, "--out", "r1", "--force"])
@@ -103,6 +127,11 @@ rc, out, _ = run(["gas", "--restart", snap, "--out", "r2", "--set", "time.end=3e
 check("restart with a new end time and guards runs", rc == 0, out)
 run_id = summary(f"{work}/r1")["run_id"]
 check("a continuation keeps the run id", summary(f"{work}/r2")["run_id"] == run_id and run_id, str(run_id))
+s2 = summary(f"{work}/r2")
+check("summary.json says which code, when, where, how and from what",
+      all(s2.get(k) for k in ("version", "commit", "started", "ended_at", "host", "ranks", "command"))
+      and "--set time.end=3e-5" in s2["command"] and str(s2.get("restarted_from", "")).endswith(snap)
+      and summary(f"{work}/r1")["restarted_from"] is None, str(s2))
 # A snapshot from before contact.scheme existed (no contact_scheme attribute) continues with the
 # scheme it was made with, Verlet, and says so; a current one continues with its own.
 with h5py.File(f"{work}/{snap}", "r") as f:
@@ -152,6 +181,61 @@ log = open(f"{work}/ovl_run/run.log").read()
 check("an error after the output exists reaches run.log and summary.json",
       rc == 2 and s["status"] == "error" and "overlap" in s["stop_reason"] and "overlap" in log, out + log)
 
+def interrupted_run(args, sig, out_dir):
+    """Starts cassini under mpiexec, sends `sig` to mpiexec once the step loop runs (as a
+    scheduler or Ctrl-C would); returns (exit code, output, seconds from the signal to the end)."""
+    import signal as _signal
+    cmd = [mpiexec, "-n", "2", *mpi_flags, cassini, *args, "--out", out_dir, "--set", "output.progress_every=0.05"]
+    p = subprocess.Popen(cmd, cwd=work, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    text = ""
+    for line in p.stdout:  # the first progress line: the step loop is running
+        text += line
+        if line.startswith("step ") or line.startswith("run "):
+            break
+    t0 = time.time()
+    p.send_signal(sig)
+    try:
+        text += p.communicate(timeout=60)[0]
+    except subprocess.TimeoutExpired:
+        p.kill()
+        return "hung", text, time.time() - t0
+    return p.returncode, text, time.time() - t0
+
+
+import signal
+for sig, name in ((signal.SIGTERM, "SIGTERM"), (signal.SIGINT, "SIGINT")):
+    # (mpirun passes SIGINT on to the ranks as SIGTERM)
+    rc, out, secs = interrupted_run(["gas", "--set", "time.end=1", "--set", "output.snapshot_every=1e-4"], sig,
+                                    f"intr_{name}")
+    s = summary(f"{work}/intr_{name}")
+    m = re.search(r"at step (\d+), t = ", s.get("stop_reason", ""))
+    check(f"{name} to mpirun: every rank stops at a step boundary, summary.json says interrupted with the step "
+          f"({secs:.1f} s)", rc != "hung" and s["status"] == "interrupted" and "interrupted by SIG" in s["stop_reason"] and m
+          and int(m.group(1)) == s["final_step"], out + str(s))
+    try:
+        complete_frames(f"{work}/intr_{name}")
+        whole = not any(f.endswith(".partial") for f in os.listdir(f"{work}/intr_{name}"))
+        check(f"{name}: every frame left is complete", whole, str(os.listdir(f"{work}/intr_{name}")))
+    except Exception as e:
+        check(f"{name}: every frame left is complete", False, str(e))
+rc, out, _ = interrupted_run(["gas", "--set", "time.end=1", "--set", "output.snapshot_on_signal=true"], signal.SIGTERM,
+                             "intr_snap")
+s = summary(f"{work}/intr_snap")
+last = f"intr_snap/snap_{s['final_step']:09d}.h5md"
+check("output.snapshot_on_signal: the interrupted run leaves a snapshot of its last step",
+      s["status"] == "interrupted" and os.path.exists(f"{work}/{last}"), out + str(s))
+rc, out, _ = run(["gas", "--restart", last, "--out", "intr_cont", "--set", f"time.end={s['simulated_time'] + 2e-6}"])
+check("... from which the run continues", rc == 0 and summary(f"{work}/intr_cont")["status"] == "completed", out)
+rc, out, _ = run(["gas", "--ensemble", "2", "--out", "ens_done", "--set", "time.end=2e-6"])
+s = summary(f"{work}/ens_done")
+check("an ensemble that completes writes summary.json",
+      rc == 0 and s["status"] == "completed" and s["runs_finished"] == 2 and s["ensemble_runs"] == 2, out + str(s))
+rc, out, _ = interrupted_run(["gas", "--ensemble", "40", "--set", "time.end=2e-4"], signal.SIGTERM, "ens_intr")
+s = summary(f"{work}/ens_intr")
+rows = open(f"{work}/ens_intr/ensemble.csv").read().splitlines()
+check("an interrupted ensemble says so and keeps the finished runs' rows",
+      rc != "hung" and s["status"] == "interrupted" and s["runs_finished"] == len(rows) - 1 < 40, out + str(s))
+
 # ---- 4. exit codes and messages
 for label, args, code, needle in (
         ("unknown option", ["gas", "--bogus"], 2, "--bogus"),
@@ -177,6 +261,44 @@ check("NaN in an init file names the field", rc == 2 and "field 'vy'" in out, ou
 rc, out, _ = run(["gas", "--out", "x5", "--set", "particles.volume_fraction=0.3", "--set", "domain.hi=[30.0,20.0,20.0]"])
 check("a particle count that cannot fit is refused with the memory it needs", rc == 2 and "GB" in out, out)
 
+# Nonsense is refused by name (each was once accepted silently)
+gas_case = open(f"{work}/gas/case.toml").read()
+write(f"{work}/twopair/case.toml", gas_case + '\n[[pair]]\nspecies = ["glass", "glass"]\ne = 0.8\n'
+      '\n[[pair]]\nspecies = ["glass", "glass"]\ne = 0.7\n')
+write(f"{work}/outside/p.txt", "0.05 0.01 0.01 0 0 0 0.0005\n")
+write(f"{work}/outside/case.toml", open(f"{work}/fast/case.toml").read())
+write(f"{work}/hertz/case.toml", gas_case.replace("t_c = 1.0e-5                     # s, contact duration",
+                                                  'model = "hertz"\nyoungs_modulus = 6.3e10\nimpact_speed = 0.001'))
+os.mkfifo(f"{work}/fifo.toml")
+for label, args, key in (
+        ("time.end beyond 9e15 steps", ["gas", "--set", "time.end=1e300"], "time.end"),
+        ("output.observe_every = 0", ["gas", "--set", "output.observe_every=0"], "output.observe_every"),
+        ("two [[pair]] tables for one pair", ["twopair"], "pair[1].species"),
+        ("a bead outside the periodic box", ["outside"], "outside the box"),
+        ("a Hertz impact_speed far below the initial speeds", ["hertz"], "species[0].impact_speed"),
+        ("a FIFO as the case file", ["fifo.toml"], "not a regular file"),
+        ("a restart whose end is not after the snapshot", ["gas", "--restart", snap, "--set", "time.end=1e-5"],
+         "time.end"),
+        ("clog.count_from < 0", ["clog", "--set", "clog.count_from=-1"], "clog.count_from"),
+        ("a continuous-mode key in single mode", ["clog", "--set", "clog.avalanches=3"], "clog.avalanches"),
+        ("a self-gravity mesh larger than memory",
+         ["gas", "--set", 'modules=["contact","self-gravity"]', "--set", 'domain.boundary=["periodic","periodic","open"]',
+          "--set", "self_gravity.grid=[4096,4096,4096]"], "self_gravity.grid")):
+    rc, out, secs = run([*args, "--out", f"refused_{key.split()[0]}"], timeout=60)
+    check(f"{label}: refused naming {key}", rc == 2 and key in out, out)
+# Restarts compare what the cases resolve to, not how they are spelt
+rc, out, _ = run(["gas", "--restart", snap, "--out", "r_default", "--set", 'contact.scheme="exact"',
+                  "--set", "time.end=3e-5"])
+check("a restart that writes a default out (contact.scheme = \"exact\") runs", rc == 0, out)
+write(f"{work}/gas_dt/case.toml", gas_case.replace("n_c = 50                         # dt = t_c / 50", "dt = 2.0e-7"))
+rc, out, _ = run(["gas_dt", "--restart", snap, "--out", "r_dt", "--set", "time.end=3e-5"])
+check("a restart giving dt for the equivalent n_c runs", rc == 0, out)
+rc, out, _ = run(["gas_dt", "--restart", snap, "--out", "r_dt2", "--set", "time.end=3e-5", "--set", "time.dt=1e-7"])
+check("... and another dt is refused naming time.dt", rc == 2 and "time.dt" in out, out)
+rc, out, _ = run(["clog", "--ensemble", "2", "--out", "ens_snap", "--set", "output.snapshot_every=0.1",
+                  "--set", "time.end=0.001"])
+check("--ensemble with snapshots set says they are not written", rc == 0 and "output.snapshot_every" in out, out)
+
 # ---- 5. cassini-cg
 rc, out, _ = run(["r1/snap_000000100.h5md", "r1/snap_999.h5md"], exe=cg)
 check("cassini-cg names a missing snapshot", rc == 2 and "no such snapshot" in out, out)
@@ -194,15 +316,6 @@ check("cassini-cg averages a run with its continuation", rc == 0, out)
 
 
 # ---- 6. a write failure on any rank ends the job, names the file and the reason
-def complete_frames(run_dir):
-    """Every snap_*.h5md must open and carry parameters@complete; returns their names."""
-    names = sorted(f for f in os.listdir(run_dir) if f.endswith(".h5md") and f.startswith("snap_"))
-    for n in names:
-        with h5py.File(os.path.join(run_dir, n), "r") as f:
-            assert f["parameters"].attrs["complete"] in (b"yes", "yes"), n
-    return names
-
-
 def disk_full_case(label, args, env, expect_file, run_dir):
     rc, out, secs = run(args, env=env, timeout=90)
     ok = rc not in (0, "hung") and secs < 30 and "No space left on device" in out and expect_file in out

@@ -8,6 +8,7 @@
 
 #include <mpi.h>
 
+#include "core/Interrupt.hpp"
 #include "core/Simulation.hpp"
 #include "io/RunOutput.hpp"
 #include "physics/ChannelWalls.hpp"
@@ -25,7 +26,7 @@ std::string result(const Simulation& sim, const std::string& key) {
 }
 }  // namespace
 
-void run_ensemble(const Config& base, int runs, RunOutput& out) {
+int run_ensemble(const Config& base, int runs, RunOutput& out) {
   int rank = 0, nranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &nranks);
@@ -41,8 +42,8 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
   rows << header << "\n";
   const auto t0 = std::chrono::steady_clock::now();
   const double d = 2 * base.species[base.init_species].radius_max;
-  int done = 0;
-  for (int k = rank; k < runs; k += nranks) {
+  int done = 0, interrupted = 0;
+  for (int k = rank; k < runs && !interrupted; k += nranks) {
     Config cfg = base;
     cfg.seed = base.seed + static_cast<std::uint64_t>(k);
     const auto r0 = std::chrono::steady_clock::now();
@@ -54,6 +55,8 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
       sim.run();
       if (!sim.finished) ended = "time limit";
       else ended = sim.finish_reason;
+      interrupted = sim.interrupted;
+      if (interrupted) break;  // an unfinished run is no sample: not in the table
     } catch (const GuardError& e) {
       ended = std::string("guard: ") + e.what();
       std::replace(ended.begin(), ended.end(), ',', ';');
@@ -93,7 +96,10 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
     }
   }
   rows.close();
-  MPI_Barrier(MPI_COMM_WORLD);
+  int signal = 0;  // any rank's
+  MPI_Allreduce(&interrupted, &signal, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  int finished = done, all_finished = 0;
+  MPI_Reduce(&finished, &all_finished, 1, MPI_INT, MPI_SUM, 0, MPI_COMM_WORLD);
   if (rank == 0) {
     std::map<int, std::string> byrun;
     for (int r = 0; r < nranks; ++r) {
@@ -111,7 +117,16 @@ void run_ensemble(const Config& base, int runs, RunOutput& out) {
     os << "ensemble: " << byrun.size() << " runs on " << nranks << " rank(s) in " << el << " s = " << 3600.0 * byrun.size() / el
        << " runs per hour -> " << out.dir() << "/ensemble.csv";
     out.log(os.str());
+    std::string status = "completed", reason = "all runs ended";
+    if (signal) {
+      status = "interrupted";
+      reason = std::string("interrupted by ") + signal_name(signal) + " after " + std::to_string(all_finished) + " of " +
+               std::to_string(runs) + " runs; ensemble.csv holds the finished ones";
+      out.log("INTERRUPTED: " + reason);
+    }
+    out.ensemble_summary(status, reason, runs, all_finished, el);
   }
+  return signal ? 128 + signal : 0;
 }
 
 }  // namespace cassini

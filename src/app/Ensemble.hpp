@@ -13,6 +13,7 @@ namespace cassini {
 
 class RunOutput;
 
-void run_ensemble(const Config& cfg, int runs, RunOutput& out);
+// Returns the exit code: 0, or 128 + the signal that interrupted it (summary.json says which).
+int run_ensemble(const Config& cfg, int runs, RunOutput& out);
 
 }  // namespace cassini

@@ -13,11 +13,13 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
+#include "core/Interrupt.hpp"
 #include "io/ReadConfig.hpp"
 #include "core/Simulation.hpp"
 #include "app/Ensemble.hpp"
 #include "io/RunOutput.hpp"
 #include "io/Snapshot.hpp"
+#include "physics/ChannelConfig.hpp"
 #include "physics/StokesDrag.hpp"
 
 namespace fs = std::filesystem;
@@ -58,6 +60,13 @@ int main(int argc, char** argv) {
     return shown == 0 ? 0 : 2;
   }
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // HDF5 failures are reported by cassini, once
+  install_interrupt_handlers();  // SIGTERM/SIGINT: stop at the next step boundary, say so
+  std::string command;
+  for (int k = 0; k < argc; ++k) {
+    const std::string a = argv[k];
+    const bool quote = a.empty() || a.find_first_of(" \t\"'[]$*?;&|<>()") != std::string::npos;
+    command += (k ? " " : "") + (quote ? "'" + a + "'" : a);
+  }
 
   int code = 0;
   std::unique_ptr<RunOutput> out_ptr;  // once the output directory exists, errors go to its run.log too
@@ -73,8 +82,12 @@ int main(int argc, char** argv) {
     const bool legacy_scheme = !restart.empty() && snapshot_parameter(restart, "contact_scheme").empty();
     if (legacy_scheme) cfg.exact_contacts = false;
     if (out_dir.empty()) out_dir = "runs/" + fs::path(file).parent_path().filename().string();
-    out_ptr = std::make_unique<RunOutput>(out_dir, force, MPI_COMM_WORLD, std::vector<std::string>{file, restart});
+    std::vector<RunInput> inputs = {{file, "the case file"}, {restart, "--restart"}, {cfg.init_file, "particles.file"}};
+    if (cfg.has<ChannelConfig>()) inputs.push_back({cfg.get<ChannelConfig>().cache_dir, "flow.cache"});
+    out_ptr = std::make_unique<RunOutput>(out_dir, force, MPI_COMM_WORLD, inputs);
     RunOutput& out = *out_ptr;
+    out.command = command;
+    out.restarted_from = restart.empty() ? "" : fs::absolute(restart).lexically_normal().string();
     std::ostringstream resolved;
     resolved << cf.table();
     out.write_text("case.toml", resolved.str() + "\n");
@@ -92,12 +105,16 @@ int main(int argc, char** argv) {
       out.run_id = id.str();
     }
 
+    out.log(out.provenance_line());
     if (ensemble > 0) {
       out.log("cassini: " + file + ": ensemble of " + std::to_string(ensemble) + " runs on " + std::to_string(nranks) +
               " rank(s), one whole run per rank at a time");
-      run_ensemble(cfg, ensemble, out);
+      if (cfg.snapshot_every > 0 || cfg.dump_every > 0)
+        out.log("note: --ensemble writes one row of ensemble.csv per run and no frames: output.snapshot_every and "
+                "output.dump_every are not used (run one seed without --ensemble for its frames)");
+      code = run_ensemble(cfg, ensemble, out);
       MPI_Finalize();
-      return 0;
+      return code;
     }
     Simulation sim(cfg, MPI_COMM_WORLD);
     if (!restart.empty()) read_snapshot(sim, restart);
@@ -128,6 +145,15 @@ int main(int argc, char** argv) {
     try {
       sim.run(&out);
       if (sim.finished) reason = sim.finish_reason;
+      if (sim.interrupted) {
+        status = "interrupted";
+        std::ostringstream os;
+        os << reason << " at step " << sim.step_count << ", t = " << sim.time << " s"
+           << (cfg.snapshot_on_signal ? "; last snapshot written (continue with --restart)" : "");
+        reason = os.str();
+        out.log("INTERRUPTED: " + reason);
+        code = 128 + sim.interrupted;
+      }
     } catch (const GuardError& e) {
       out.log(std::string("STOPPED: ") + e.what() + "\ndiagnostic dump (the state of that step) written to " +
               out_dir + "/dump/");

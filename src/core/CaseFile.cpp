@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <sstream>
 
 namespace cassini {
@@ -153,6 +154,8 @@ CaseFile CaseFile::load(const std::string& path, const std::vector<std::string>&
   if (!std::filesystem::exists(path)) throw ConfigError(path + ": no such case file");
   if (std::filesystem::is_directory(path))
     throw ConfigError(path + ": is a directory, expected a TOML case file");
+  if (!std::filesystem::is_regular_file(path))  // a FIFO or a device would block the read forever
+    throw ConfigError(path + ": not a regular file (a pipe, socket or device), expected a TOML case file");
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the case file: " + std::strerror(errno));
   std::stringstream ss;
@@ -192,6 +195,35 @@ void CaseFile::fail(const std::string& key, const std::string& expected) const {
   throw ConfigError(source_ + ": key '" + name + "': expected " + expected + got);
 }
 
+namespace {
+std::string text_of(double v) {  // the shortest text that reads back as v
+  for (int digits = 6;; ++digits) {
+    std::ostringstream os;
+    os << std::setprecision(digits) << v;
+    if (digits >= 17 || std::strtod(os.str().c_str(), nullptr) == v) return os.str();
+  }
+}
+std::string text_of(long v) { return std::to_string(v); }
+std::string text_of(bool v) { return v ? "true" : "false"; }
+std::string text_of(const std::string& v) { return "\"" + v + "\""; }
+std::string text_of(const Vec3& v) { return "[" + text_of(v[0]) + ", " + text_of(v[1]) + ", " + text_of(v[2]) + "]"; }
+template <class T>
+std::string text_of(const std::vector<T>& v) {
+  std::string out = "[";
+  for (std::size_t k = 0; k < v.size(); ++k) out += (k ? ", " : "") + text_of(v[k]);
+  return out + "]";
+}
+}  // namespace
+
+template <class T>
+T CaseFile::note(const std::string& key, T value) {
+  resolved_[canonical(split_key(key))] = text_of(value);
+  return value;
+}
+
+void CaseFile::record(const std::string& key, double value) { resolved_[canonical(split_key(key))] = text_of(value); }
+void CaseFile::forget(const std::string& key) { resolved_.erase(canonical(split_key(key))); }
+
 double CaseFile::positive(const std::string& key, std::optional<double> fallback) {
   const double v = number(key, fallback);
   if (!(v > 0)) fail(key, "a positive number");
@@ -208,12 +240,12 @@ double CaseFile::number(const std::string& key, std::optional<double> fallback) 
   mark(canonical(split_key(key)));
   const auto* n = find(key);
   if (!n) {
-    if (fallback) return *fallback;
+    if (fallback) return note(key, *fallback);
     fail(key, "a number");
   }
   if (auto v = n->value<double>()) {  // integers are accepted as numbers
     if (!std::isfinite(*v)) fail(key, "a finite number");
-    return *v;
+    return note(key, *v);
   }
   fail(key, "a number");
 }
@@ -222,10 +254,10 @@ long CaseFile::integer(const std::string& key, std::optional<long> fallback) {
   mark(canonical(split_key(key)));
   const auto* n = find(key);
   if (!n) {
-    if (fallback) return *fallback;
+    if (fallback) return note(key, *fallback);
     fail(key, "an integer");
   }
-  if (n->is_integer()) return static_cast<long>(*n->value<int64_t>());
+  if (n->is_integer()) return note(key, static_cast<long>(*n->value<int64_t>()));
   fail(key, "an integer");
 }
 
@@ -233,10 +265,10 @@ bool CaseFile::boolean(const std::string& key, std::optional<bool> fallback) {
   mark(canonical(split_key(key)));
   const auto* n = find(key);
   if (!n) {
-    if (fallback) return *fallback;
+    if (fallback) return note(key, *fallback);
     fail(key, "true or false");
   }
-  if (n->is_boolean()) return *n->value<bool>();
+  if (n->is_boolean()) return note(key, *n->value<bool>());
   fail(key, "true or false");
 }
 
@@ -244,10 +276,10 @@ std::string CaseFile::string(const std::string& key, std::optional<std::string> 
   mark(canonical(split_key(key)));
   const auto* n = find(key);
   if (!n) {
-    if (fallback) return *fallback;
+    if (fallback) return note(key, *fallback);
     fail(key, "a string");
   }
-  if (n->is_string()) return *n->value<std::string>();
+  if (n->is_string()) return note(key, *n->value<std::string>());
   fail(key, "a string");
 }
 
@@ -255,7 +287,7 @@ Vec3 CaseFile::vec3(const std::string& key, std::optional<Vec3> fallback) {
   mark(canonical(split_key(key)));
   const auto* n = find(key);
   if (!n) {
-    if (fallback) return *fallback;
+    if (fallback) return note(key, *fallback);
     fail(key, "an array of 3 numbers");
   }
   const auto* a = n->as_array();
@@ -266,7 +298,7 @@ Vec3 CaseFile::vec3(const std::string& key, std::optional<Vec3> fallback) {
     if (!x || !std::isfinite(*x)) fail(key, "an array of 3 finite numbers");
     v[i] = *x;
   }
-  return v;
+  return note(key, v);
 }
 
 std::vector<std::string> CaseFile::strings(const std::string& key,
@@ -274,7 +306,7 @@ std::vector<std::string> CaseFile::strings(const std::string& key,
   mark(canonical(split_key(key)));
   const auto* n = find(key);
   if (!n) {
-    if (fallback) return *fallback;
+    if (fallback) return note(key, *fallback);
     fail(key, "an array of strings");
   }
   const auto* a = n->as_array();
@@ -284,7 +316,7 @@ std::vector<std::string> CaseFile::strings(const std::string& key,
     if (!e.is_string()) fail(key, "an array of strings");
     out.push_back(*e.value<std::string>());
   }
-  return out;
+  return note(key, out);
 }
 
 std::vector<double> CaseFile::numbers(const std::string& key) {
@@ -298,7 +330,7 @@ std::vector<double> CaseFile::numbers(const std::string& key) {
     if (!x || !std::isfinite(*x)) fail(key, "an array of finite numbers");
     out.push_back(*x);
   }
-  return out;
+  return note(key, out);
 }
 
 std::vector<std::array<double, 2>> CaseFile::points(const std::string& key) {

@@ -3,6 +3,7 @@
 // the key and what was expected. Keys are tracked as they are read, so that any key the
 // solver never looked at is reported as unknown instead of being silently ignored.
 #include <array>
+#include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -41,6 +42,13 @@ class CaseFile {
   std::vector<std::array<double, 2>> points(const std::string& key);
   std::size_t array_size(const std::string& key);  // number of entries of an array of tables
 
+  // Every value read so far, defaults included, by key ("species[0].radius" -> "0.0005"):
+  // what the run resolved, whatever the spelling. record() adds a derived value under the key
+  // it stands for (dt from time.n_c) and forget() drops the key it came from.
+  const std::map<std::string, std::string>& resolved() const { return resolved_; }
+  void record(const std::string& key, double value);
+  void forget(const std::string& key);
+
   // Every leaf key of the file ("species[0].radius") with its value as TOML text.
   std::vector<std::pair<std::string, std::string>> leaf_values() const;
 
@@ -59,6 +67,9 @@ class CaseFile {
   toml::table table_;
   std::string source_;
   std::set<std::string> used_;
+  std::map<std::string, std::string> resolved_;
+  template <class T>
+  T note(const std::string& key, T value);  // records value as resolved, returns it
 };
 
 }  // namespace cassini

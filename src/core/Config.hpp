@@ -127,6 +127,7 @@ struct Config {
   double snapshot_from = 0;   // no snapshots before this simulated time
   double observe_every = 0;   // simulated time between observables rows (0: 100 rows per run)
   double progress_every = 2;  // wall seconds between progress lines
+  bool snapshot_on_signal = false;  // SIGTERM/SIGINT: write a last snapshot to continue from
 
   // guards
   double max_overlap_fraction = 0.2;  // stop when an overlap exceeds this fraction of a radius

@@ -233,6 +233,14 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
           throw ConfigError(where + "field '" + field[k] + "' is " + words[k] + ", expected a finite number");
       }
       const Vec3 x(value[0], value[1], value[2]), v(value[3], value[4], value[5]);
+      // A periodic axis would silently take the bead's image; an open or walled one would lose it.
+      for (int d = 0; d < (cfg.planar ? 2 : 3); ++d)
+        if (!(x[d] >= cfg.lo[d] && x[d] < cfg.hi[d])) {
+          std::ostringstream os;
+          os << where << "field '" << field[d] << "' is " << words[d] << ", outside the box [" << cfg.lo[d] << ", "
+             << cfg.hi[d] << ") of domain.lo/hi; expected a position inside it";
+          throw ConfigError(os.str());
+        }
       const double a = value[6];
       if (!(a > 0)) throw ConfigError(where + "field 'radius' is " + words[6] + ", expected a positive number");
       int sp = cfg.init_species;

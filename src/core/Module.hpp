@@ -95,6 +95,10 @@ class Module {
   // observables.csv and datasets of observables.h5md, at output.observe_every.
   virtual void observables(Simulation&, std::vector<std::pair<std::string, double>>&) {}
 
+  // An event that may end the run before time.end ("a clog"), "" if none: the progress line's
+  // time left is then an upper bound.
+  virtual std::string ends_run_at() const { return ""; }
+
   // True for the particle-pair loop: its force stage is timed as "pair", the rest as "modules".
   virtual bool pair_loop() const { return false; }
 };

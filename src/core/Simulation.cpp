@@ -1,4 +1,5 @@
 #include "core/Simulation.hpp"
+#include "core/Interrupt.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -67,6 +68,30 @@ void Simulation::setup() {
   if (!restored) {
     compute_forces();
     check_initial_overlaps();
+    check_initial_speeds();
+  }
+}
+
+void Simulation::check_initial_speeds() {
+  // A Hertz contact is shorter the faster the impact (t_c ~ u^-1/5), and dt follows from the
+  // species' impact_speed, "the fastest expected". Particles that start far faster than that
+  // would collide under-resolved from the first step: refuse, naming the key.
+  std::vector<double> fastest(cfg.species.size(), 0.0), global(cfg.species.size(), 0.0);
+  for (std::size_t i = 0; i < particles.nlocal; ++i) {
+    double& f = fastest[particles.species[i]];
+    f = std::max(f, (particles.v[i] - imposed_flow(particles.x[i])).norm());
+  }
+  MPI_Allreduce(fastest.data(), global.data(), int(fastest.size()), MPI_DOUBLE, MPI_MAX, domain.comm);
+  for (std::size_t k = 0; k < cfg.species.size(); ++k) {
+    const Species& s = cfg.species[k];
+    const double approach = 2 * global[k];  // two such particles head-on
+    if (!(s.impact_speed > 0) || approach <= 10 * s.impact_speed || cfg.force_dt) continue;
+    std::ostringstream os;
+    os << cfg.source << ": key 'species[" << k << "].impact_speed': " << s.impact_speed
+       << " m/s, but the initial particles approach at up to " << approach << " m/s, where a contact lasts "
+       << s.t_c * std::pow(s.impact_speed / approach, 0.2) / dt << " steps instead of " << s.t_c / dt
+       << "; expected an impact speed of at least a tenth of that (or time.force = true)";
+    throw ConfigError(os.str());
   }
 }
 
@@ -314,6 +339,10 @@ void Simulation::run(RunSink* out) {
   const auto t0 = clock::now();
   auto last_print = t0;
   long last_step = step_count;
+  const long first_step = step_count;
+  std::string event;  // what may end the run before time.end
+  for (const auto& m : modules)
+    if (const std::string e = m->ends_run_at(); !e.empty()) event += (event.empty() ? "" : " or ") + e;
   output_ = out;
   timers.reset();  // the stages of the step loop only (not set-up, not a previous run)
   if (out) {
@@ -329,30 +358,37 @@ void Simulation::run(RunSink* out) {
       output_ = nullptr;
       throw;
     }
-    if (!out) continue;
-    auto t_out = timers.scope(StageTimers::Output);
-    if (step_count % observe_every == 0) out->observe(*this);
-    if (dump_every && step_count % dump_every == 0) out->dump(*this, "step");
-    if (snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt) out->snapshot(*this);
+    // Every 64 steps, one collective: rank 0's clock decides the progress line, and a
+    // signal received by any rank stops every rank at this same step.
     if ((step_count & 63) == 0) {
       const auto now = clock::now();
       const double since = std::chrono::duration<double>(now - last_print).count();
-      int print = since >= cfg.progress_every;
-      MPI_Bcast(&print, 1, MPI_INT, 0, domain.comm);  // rank 0's clock decides, for everyone
-      if (print) {
+      int flags[2] = {out && domain.rank == 0 && since >= cfg.progress_every, interrupt_signal()}, agreed[2];
+      MPI_Allreduce(flags, agreed, 2, MPI_INT, MPI_MAX, domain.comm);
+      if (agreed[1]) {
+        interrupted = agreed[1];
+        finish(std::string("interrupted by ") + signal_name(interrupted));
+      }
+      if (agreed[0]) {
         n_total = total_particles();  // changes in scenes with an inlet and an outlet
         const double rate = double(step_count - last_step) * n_total / since;
         const double elapsed = std::chrono::duration<double>(now - t0).count();
-        const double eta = elapsed / step_count * (nsteps - step_count);
+        // From this run's own steps: a continuation's earlier steps took no time here.
+        const double eta = elapsed / double(step_count - first_step) * double(nsteps - step_count);
         std::ostringstream os;
         os.precision(4);
         os << "step " << step_count << "/" << nsteps << "  t = " << time << " s  " << rate << " particle-steps/s  ETA "
-           << std::lround(eta) << " s";
+           << (event.empty() ? "" : "<= ") << std::lround(eta) << " s" << (event.empty() ? "" : " (or at " + event + ")");
         out->log(os.str());
         last_print = now;
         last_step = step_count;
       }
     }
+    if (!out) continue;
+    auto t_out = timers.scope(StageTimers::Output);
+    if (step_count % observe_every == 0) out->observe(*this);
+    if (dump_every && step_count % dump_every == 0) out->dump(*this, "step");
+    if (snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt) out->snapshot(*this);
   }
   output_ = nullptr;
   if (global_guard_pending()) check_guards();
@@ -365,8 +401,13 @@ void Simulation::run(RunSink* out) {
        << ", \"le1_particles\": " << g[3] << ", \"le2_particles\": " << total_particles() - g[3] << "}";
     set_result("modified_lees_edwards", os.str());
   }
-  // A run that a module ended (a clog) gets a last frame with its final state and results.
-  if (out && snap_every && finished && step_count % snap_every != 0) out->snapshot(*this);
+  // A run that a module ended (a clog) gets a last frame with its final state and results; an
+  // interrupted one only when the case asks (output.snapshot_on_signal: a frame to continue from).
+  if (out && finished) {
+    const bool wanted = interrupted ? cfg.snapshot_on_signal : snap_every > 0;
+    const bool written = snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt;
+    if (wanted && !written) out->snapshot(*this);
+  }
 }
 
 bool Simulation::global_guard_pending() {

@@ -140,6 +140,7 @@ class Simulation {
   void set_result(const std::string& key, const std::string& json_value);
   bool finished = false;
   std::string finish_reason;
+  int interrupted = 0;  // the signal (SIGTERM, SIGINT) that stopped the run at a step boundary, 0 if none
   std::vector<std::pair<std::string, std::string>> results;
   // Module state read from a snapshot (see Module::save_state); empty for a fresh run.
   std::vector<std::pair<std::string, double>> restart_state;
@@ -156,6 +157,7 @@ class Simulation {
   bool remove_stillborn();
   void check_guards();
   void check_initial_overlaps();
+  void check_initial_speeds();
   bool global_guard_pending();
   std::vector<Module*> stage_[6];
   std::string guard_message_;

@@ -176,6 +176,7 @@ Config read_config(CaseFile& f) {
     }
   // Unlike species with different restitution laws have no mean: a [[pair]] table must say.
   std::vector<bool> law_set(n * n, false);
+  std::vector<int> pair_table(n * n, -1);  // which [[pair]] table set a pair (one each)
   for (std::size_t k = 0, np = f.has("pair") ? f.array_size("pair") : 0; k < np; ++k) {
     const std::string p = "pair[" + std::to_string(k) + "].";
     const auto names = f.strings(p + "species");
@@ -186,6 +187,10 @@ Config read_config(CaseFile& f) {
       if (it == c.species.end()) f.fail(p + "species", "names of [[species]]; unknown species '" + names[q] + "'");
       idx[q] = std::size_t(it - c.species.begin());
     }
+    if (const int before = pair_table[idx[0] * n + idx[1]]; before >= 0)
+      f.fail(p + "species", "one [[pair]] table per species pair; pair[" + std::to_string(before) + "] already sets '" +
+                                names[0] + "' and '" + names[1] + "'");
+    pair_table[idx[0] * n + idx[1]] = pair_table[idx[1] * n + idx[0]] = static_cast<int>(k);
     PairParameters pp = c.pairs[idx[0] * n + idx[1]];
     pp.t_c = f.positive(p + "t_c", pp.t_c);
     // A table that gives e means a constant e; one that gives neither keeps the mixed law.
@@ -298,7 +303,15 @@ Config read_config(CaseFile& f) {
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt below the stability limit " + std::to_string(dt_stable) +
                " of the contact scheme (unstable beyond, even with time.force)");
+  f.forget("time.n_c");  // the step, however it was given
+  f.record("time.dt", c.dt);
   c.t_end = f.positive("time.end");
+  // Step counts are 64-bit and the clock a double: beyond 2^53 steps neither counts exactly.
+  if (!(c.t_end / c.dt <= 9.0e15)) {
+    std::ostringstream os;
+    os << "an end time of at most 9e15 steps (time.end / dt = " << c.t_end / c.dt << " steps at dt = " << c.dt << " s)";
+    f.fail("time.end", os.str());
+  }
   c.integrator = f.string("time.integrator", integrator_kinds().front().name);
   {
     const auto& ik = integrator_kinds();
@@ -361,7 +374,8 @@ Config read_config(CaseFile& f) {
   c.dump_every = f.non_negative("output.dump_every", 0.0);
   c.snapshot_every = f.non_negative("output.snapshot_every", 0.0);
   c.snapshot_from = f.non_negative("output.snapshot_from", 0.0);
-  c.observe_every = f.non_negative("output.observe_every", c.t_end / 100);
+  c.observe_every = f.positive("output.observe_every", c.t_end / 100);
+  c.snapshot_on_signal = f.boolean("output.snapshot_on_signal", false);
   c.progress_every = f.positive("output.progress_every", 2.0);
 
   // ---- guards

@@ -5,11 +5,15 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <iostream>
 #include <sstream>
 
+#include <unistd.h>
+
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
+#include "core/Version.hpp"
 #include "physics/ContactForces.hpp"
 #include "io/IoFailure.hpp"
 #include "io/Snapshot.hpp"
@@ -34,7 +38,19 @@ std::string write_reason(const std::string& file) {
   return os.empty() ? std::string("the write failed (the file system reports no error)") : os;
 }
 
-const char* kMarker = ".cassini-run";  // written into every run directory cassini creates
+const char* kMarker = ".cassini-run";
+
+std::string utc_now() {  // ISO 8601, seconds
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+std::string host_name() {
+  char buf[256] = {0};
+  return gethostname(buf, sizeof buf - 1) == 0 ? std::string(buf) : std::string("unknown");
+}  // written into every run directory cassini creates
 
 bool inside(const fs::path& p, const fs::path& dir) {  // p is dir or below it (both canonical)
   auto d = dir.begin(), q = p.begin();
@@ -44,7 +60,7 @@ bool inside(const fs::path& p, const fs::path& dir) {  // p is dir or below it (
 }
 
 // Why `dir` may not be (re)used as the output directory, or "" when it may. Nothing is touched.
-std::string refuse_output(const std::string& dir, bool force, const std::vector<std::string>& keep) {
+std::string refuse_output(const std::string& dir, bool force, const std::vector<RunInput>& keep) {
   std::error_code ec;
   const fs::path out = fs::weakly_canonical(fs::absolute(dir), ec);
   if (fs::exists(out) && !fs::is_directory(out))
@@ -52,11 +68,11 @@ std::string refuse_output(const std::string& dir, bool force, const std::vector<
   const fs::path cwd = fs::weakly_canonical(fs::current_path(), ec);
   if (inside(cwd, out))
     return "--out '" + dir + "' is the working directory or one of its parents: refused, nothing was touched";
-  for (const auto& k : keep) {
-    if (k.empty()) continue;
-    if (inside(fs::weakly_canonical(fs::absolute(k), ec), out))
-      return "--out '" + dir + "' holds '" + k + "', which this run reads (the case file or the restart snapshot): " +
-             "write to another --out (continuing a run in place would overwrite its frames)";
+  for (const auto& [path, what] : keep) {
+    if (path.empty()) continue;
+    if (inside(fs::weakly_canonical(fs::absolute(path), ec), out))
+      return "--out '" + dir + "' holds '" + path + "', which this run reads (" + what + "): nothing was touched; " +
+             "write to another --out" + (what == "--restart" ? " (continuing a run in place would overwrite its frames)" : "");
   }
   if (!fs::exists(out) || fs::is_empty(out)) return "";
   if (!force) return "output directory '" + dir + "' exists and is not empty: choose another --out or pass --force";
@@ -68,8 +84,8 @@ std::string refuse_output(const std::string& dir, bool force, const std::vector<
 
 }  // namespace
 
-RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<std::string>& keep)
-    : dir_(dir), comm_(comm) {
+RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<RunInput>& keep)
+    : started_(utc_now()), dir_(dir), comm_(comm) {
   MPI_Comm_rank(comm, &rank_);
   std::string error;
   if (rank_ == 0) {
@@ -296,7 +312,7 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
      << "  \"stop_reason\": " << json_string(reason) << ",\n"
      << "  \"case\": " << json_string(sim.cfg.source) << ",\n"
      << "  \"run_id\": " << json_string(run_id) << ",\n"
-     << "  \"ranks\": " << sim.domain.nranks << ",\n"
+     << provenance_json()
      << "  \"steps\": " << steps << ",\n"
      << "  \"final_step\": " << sim.step_count << ",\n"
      << "  \"simulated_time\": " << num(sim.time) << ",\n"
@@ -342,7 +358,42 @@ RunOutput::~RunOutput() {
 
 void RunOutput::error_summary(const std::string& reason) {
   if (rank_ != 0) return;
-  write_text("summary.json", "{\n  \"status\": \"error\",\n  \"stop_reason\": " + json_string(reason) + "\n}\n");
+  write_text("summary.json", "{\n  \"status\": \"error\",\n  \"stop_reason\": " + json_string(reason) + ",\n" +
+                                 provenance_json() + "  \"run_id\": " + json_string(run_id) + "\n}\n");
+}
+
+std::string RunOutput::provenance_json() const {
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  std::ostringstream js;
+  js << "  \"version\": " << json_string(version()) << ",\n"
+     << "  \"commit\": " << json_string(commit()) << ",\n"
+     << "  \"started\": " << json_string(started_) << ",\n"
+     << "  \"ended_at\": " << json_string(utc_now()) << ",\n"
+     << "  \"host\": " << json_string(host_name()) << ",\n"
+     << "  \"ranks\": " << ranks << ",\n"
+     << "  \"command\": " << json_string(command) << ",\n"
+     << "  \"restarted_from\": " << (restarted_from.empty() ? "null" : json_string(restarted_from)) << ",\n";
+  return js.str();
+}
+
+std::string RunOutput::provenance_line() const {
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  return std::string("cassini ") + version() + " (commit " + commit() + "), " + host_name() + ", " +
+         std::to_string(ranks) + " rank(s), started " + started_ + "\ncommand: " + command;
+}
+
+void RunOutput::ensemble_summary(const std::string& status, const std::string& reason, int runs, int finished,
+                                 double wall) {
+  if (rank_ != 0) return;
+  std::ostringstream js;
+  js << "{\n  \"status\": " << json_string(status) << ",\n  \"stop_reason\": " << json_string(reason) << ",\n"
+     << "  \"run_id\": " << json_string(run_id) << ",\n" << provenance_json()
+     << "  \"ensemble_runs\": " << runs << ",\n  \"runs_finished\": " << finished << ",\n"
+     << "  \"wall_seconds\": " << json_number(wall) << ",\n"
+     << "  \"table\": \"ensemble.csv\"\n}\n";
+  write_text("summary.json", js.str());
 }
 
 }  // namespace cassini

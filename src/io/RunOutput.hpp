@@ -20,13 +20,18 @@ class Simulation;
 std::string json_number(double v);         // "null" for inf and NaN
 std::string json_string(const std::string& text);
 
+// A file or directory the run reads, and what names it ("the case file", "particles.file").
+struct RunInput {
+  std::string path, what;
+};
+
 class RunOutput : public RunSink {
  public:
   // Creates `dir` (marked as a run directory). Refuses, before touching anything: a file,
-  // the working directory or a parent, a directory holding any of `keep` (the case file,
-  // the restart snapshot), a non-empty directory without --force, and with --force one that
-  // cassini did not make.
-  RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<std::string>& keep = {});
+  // the working directory or a parent, a directory holding any of `keep` (every input the run
+  // reads: the case file, the restart snapshot, particles.file, the flow cache), a non-empty
+  // directory without --force, and with --force one that cassini did not make.
+  RunOutput(const std::string& dir, bool force, MPI_Comm comm, const std::vector<RunInput>& keep = {});
   // A run that wrote no observables row (an ensemble, an early error) still leaves
   // observables.csv with its column names.
   ~RunOutput();
@@ -45,8 +50,16 @@ class RunOutput : public RunSink {
   const std::string& dir() const { return dir_; }
   std::string case_text;                             // resolved case, stored in snapshots
   std::string run_id;                                // names the run in snapshots (kept on restart)
+  // Provenance (summary.json, run.log): which code, when, where, how and from what.
+  std::string command;                               // the command line as given (--set overrides included)
+  std::string restarted_from;                        // the snapshot a continuation starts from, "" if none
+  std::string provenance_line() const;               // one line for run.log
+  // Collective. A whole ensemble ends here: status, runs asked for and finished, where the table is.
+  void ensemble_summary(const std::string& status, const std::string& reason, int runs, int finished, double wall);
 
  private:
+  std::string provenance_json() const;                // the provenance members of summary.json
+  std::string started_;                              // ISO 8601 UTC, when the output directory was made
   std::string timing_;
   bool header_written_ = false;  // observables.csv: its header names the modules' columns too
   void write_header(const std::vector<std::pair<std::string, double>>& module_columns);  // rank 0

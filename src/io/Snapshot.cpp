@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "core/CaseFile.hpp"
 #include "io/Hdf5Handle.hpp"
 #include "io/IoFailure.hpp"
+#include "io/ReadConfig.hpp"
 #include "io/SnapshotSchema.hpp"
 #include "core/Simulation.hpp"
 #include "physics/ContactForces.hpp"
@@ -514,6 +516,19 @@ std::string snapshot_parameter(const std::string& path, const std::string& name)
   return text;
 }
 
+double snapshot_time(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file < 0) throw ConfigError(path + ": not a readable HDF5 file (truncated, or not a cassini snapshot)");
+  double now[3] = {0, 0, 0};
+  const hid_t d = H5Dopen2(file, "parameters/time_offset_dt", H5P_DEFAULT);
+  const bool ok = d >= 0 && H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, now) >= 0;
+  if (d >= 0) H5Dclose(d);
+  H5Fclose(file);
+  if (!ok) throw ConfigError(path + ": not a complete cassini snapshot (no parameters/time_offset_dt)");
+  return now[0];
+}
+
 std::string snapshot_case_text(const std::string& path) {
   std::string text = snapshot_parameter(path, "case");
   if (text.empty()) throw ConfigError(path + ": not a complete cassini snapshot (it stores no case)");
@@ -524,12 +539,22 @@ void check_restart_case(const std::string& snapshot, const CaseFile& now) {
   if (!std::filesystem::exists(snapshot)) throw ConfigError("--restart '" + snapshot + "': no such file");
   if (std::filesystem::is_directory(snapshot))
     throw ConfigError("--restart '" + snapshot + "': is a directory, expected a snap_<step>.h5md file");
-  const CaseFile then = CaseFile::parse(snapshot_case_text(snapshot), snapshot + " (its stored case)");
-  // Compare printed values: the stored case went through the same printer.
-  std::ostringstream printed;
-  printed << now.table();
-  const CaseFile now_printed = CaseFile::parse(printed.str(), now.source());
-  const auto a = then.leaf_values(), b = now_printed.leaf_values();
+  CaseFile then = CaseFile::parse(snapshot_case_text(snapshot), snapshot + " (its stored case)");
+  // Compare what each case resolves to (defaults filled in, dt however it was given), so that
+  // writing a default out or giving dt for the equivalent n_c is no change. A stored case that
+  // today's reader refuses (an older format) is compared as printed text instead.
+  std::map<std::string, std::string> old, cur = now.resolved();
+  try {
+    read_config(then);
+    old = then.resolved();
+  } catch (const ConfigError&) {
+    std::ostringstream printed;
+    printed << now.table();
+    const CaseFile now_printed = CaseFile::parse(printed.str(), now.source());
+    for (const auto& [k, v] : then.leaf_values()) old[k] = v;
+    cur.clear();
+    for (const auto& [k, v] : now_printed.leaf_values()) cur[k] = v;
+  }
   auto may_change = [](const std::string& key) {
     for (const char* prefix : {"output.", "guards."})
       if (key.rfind(prefix, 0) == 0) return true;
@@ -537,18 +562,48 @@ void check_restart_case(const std::string& snapshot, const CaseFile& now) {
       if (key == k) return true;
     return false;
   };
-  std::map<std::string, std::string> old(a.begin(), a.end()), cur(b.begin(), b.end());
+  auto same = [](const std::string& a, const std::string& b) {
+    if (a == b) return true;
+    char *ea = nullptr, *eb = nullptr;
+    const double x = std::strtod(a.c_str(), &ea), y = std::strtod(b.c_str(), &eb);
+    return ea == a.c_str() + a.size() && eb == b.c_str() + b.size() && !a.empty() && !b.empty() &&
+           std::abs(x - y) <= 1e-12 * std::max(std::abs(x), std::abs(y));
+  };
   std::set<std::string> keys;
   for (const auto& [k, v] : old) keys.insert(k);
   for (const auto& [k, v] : cur) keys.insert(k);
+  // Name a key the case files write before one whose default follows from it (contact.skin
+  // from the radius), and list the rest.
+  std::set<std::string> written;
+  for (const auto& [k, v] : then.leaf_values()) written.insert(k);
+  for (const auto& [k, v] : now.leaf_values()) written.insert(k);
+  std::vector<std::string> differ;
   for (const auto& k : keys) {
     if (may_change(k)) continue;
     const auto o = old.find(k), c = cur.find(k);
+    if (!same(o == old.end() ? "(absent)" : o->second, c == cur.end() ? "(absent)" : c->second)) differ.push_back(k);
+  }
+  std::stable_partition(differ.begin(), differ.end(), [&](const std::string& k) { return written.count(k) > 0; });
+  if (!differ.empty()) {
+    const std::string& k = differ.front();
+    const auto o = old.find(k), c = cur.find(k);
     const std::string was = o == old.end() ? "(absent)" : o->second, is = c == cur.end() ? "(absent)" : c->second;
-    if (was != is)
-      throw ConfigError(now.source() + ": key '" + k + "' is " + is + " but the snapshot " + snapshot + " was made with " +
-                        was + ": a restart continues the same system (only time.end, output.*, guards.*, time.force "
-                        "and the parallel layout may change)");
+    std::string also;
+    for (std::size_t n = 1; n < differ.size() && n <= 5; ++n) also += (n > 1 ? ", " : "") + differ[n];
+    throw ConfigError(now.source() + ": key '" + k + "' is " + is + " but the snapshot " + snapshot + " was made with " +
+                      was + (also.empty() ? "" : " (also differs: " + also + ")") +
+                      ": a restart continues the same system (only time.end, output.*, guards.*, time.force "
+                      "and the parallel layout may change)");
+  }
+  // A continuation must have steps to run: an end at or before the snapshot's time would
+  // "complete" with none.
+  const double t_snap = snapshot_time(snapshot);
+  const auto t_end = cur.find("time.end");
+  if (t_end != cur.end() && !(std::strtod(t_end->second.c_str(), nullptr) > t_snap)) {
+    std::ostringstream os;
+    os << now.source() << ": key 'time.end' is " << t_end->second << " s, not after the snapshot's time " << t_snap
+       << " s (" << snapshot << "): expected a later end for the run to continue to (--set time.end=...)";
+    throw ConfigError(os.str());
   }
 }
 

@@ -120,6 +120,9 @@ void read_channel_config(CaseFile& f, Config& c) {
   if (mode != "single" && mode != "continuous")
     f.fail("clog.mode", "\"single\" (default: the run ends at the first clog) or \"continuous\" (the arch is removed and the flow goes on)");
   ch.continuous = mode == "continuous";
+  if (!ch.continuous)  // a single run ends at its first clog: these keys would silently do nothing
+    for (const char* key : {"clog.avalanches", "clog.backflush", "clog.clear_length", "clog.recover", "clog.clear_stalled"})
+      if (f.has(key)) f.fail(key, std::string("no ") + key + " with clog.mode = \"single\" (it applies to clog.mode = \"continuous\")");
   ch.avalanches = static_cast<int>(f.integer("clog.avalanches", 10));
   if (ch.avalanches < 1) f.fail("clog.avalanches", "a number of clogs >= 1");
   ch.backflush = f.number("clog.backflush", 0.0);
@@ -134,8 +137,8 @@ void read_channel_config(CaseFile& f, Config& c) {
            "0 (false) with clog.backflush (a back-flush clears the clog itself)");
   ch.front_fraction = f.number("clog.front_fraction", 0.5);
   if (!(ch.front_fraction > 0 && ch.front_fraction <= 1)) f.fail("clog.front_fraction", "a fraction in (0, 1]");
-  ch.count_from = f.number("clog.count_from", -1.0);
-  if (!(ch.count_from >= 0 || ch.count_from == -1.0)) f.fail("clog.count_from", "a time >= 0 (s)");
+  ch.count_from = f.has("clog.count_from") ? f.number("clog.count_from") : -1.0;  // -1: from the start
+  if (f.has("clog.count_from") && !(ch.count_from >= 0)) f.fail("clog.count_from", "a time >= 0 (s)");
 }
 
 }  // namespace cassini

@@ -160,6 +160,11 @@ void ClogMonitor::check(Simulation& sim) {
   publish(sim);
 }
 
+std::string ClogMonitor::ends_run_at() const {
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
+  return ch.continuous ? "clog " + std::to_string(ch.avalanches) : "a clog";
+}
+
 void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   clogged_ = true;

@@ -64,6 +64,7 @@ class ClogMonitor : public Module {
   unsigned stages() const override { return kEndOfStep; }
   void setup(Simulation& sim) override;
   void end_of_step(Simulation& sim) override;
+  std::string ends_run_at() const override;
   long escapees() const { return escaped_; }
   // escapees (since the start), in_neck and the approach's volume fraction (3 D to D upstream
   // of the neck: is the suspension arriving at the neck stationary?), as last counted.

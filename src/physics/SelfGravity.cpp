@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include <fftw3.h>
+#include <unistd.h>
 #include <mpi.h>
 
 #include "core/CaseFile.hpp"
@@ -72,6 +73,16 @@ ModuleKind SelfGravity::kind() {
       s.grid[d] = static_cast<int>(n);
     }
     if (c.planar && s.grid[2] != 1) f.fail(g + "grid", "nz = 1 in a planar scene");
+    {  // every rank holds the whole mesh: 6 real fields and 5 half spectra, ~88 bytes a node
+      const double need = 88.0 * grid[0] * grid[1] * grid[2];
+      const double ram = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+      if (need > 0.8 * ram) {
+        std::ostringstream os;
+        os << "a mesh that fits in memory: " << grid[0] << " x " << grid[1] << " x " << grid[2] << " nodes need about "
+           << need / 1e9 << " GB on every rank, more than this machine's " << ram / 1e9 << " GB";
+        f.fail(g + "grid", os.str());
+      }
+    }
     const double spacing = std::max((c.hi[0] - c.lo[0]) / grid[0], (c.hi[1] - c.lo[1]) / grid[1]);
     s.split = f.number(g + "split", spacing);
     if (!(s.split > 0)) f.fail(g + "split", "a length > 0 (m): the width of the Gaussian splitting mesh and pairs");
