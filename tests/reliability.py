@@ -306,6 +306,11 @@ rc, out, _ = run(["r1", "--grid", "0x-3"], exe=cg)
 check("cassini-cg --grid 0x-3 refused", rc == 2 and "--grid" in out, out)
 rc, out, _ = run(["r1", "--width", "-1"], exe=cg)
 check("cassini-cg --width -1 refused", rc == 2 and "--width" in out, out)
+for label, args, needle in (("--width inf", ["--width", "inf"], "--width"), ("--margin nan", ["--margin", "nan"], "--margin"),
+                            ("a kernel wider than the box", ["--width", "0.5"], "narrower than the box"),
+                            ("--background shear:abc", ["--background", "shear:abc"], "shear:RATE")):
+    rc, out, _ = run(["r1", *args, "--out", "nonsense.h5"], exe=cg)
+    check(f"cassini-cg {label} refused", rc == 2 and needle in out and not os.path.exists(f"{work}/nonsense.h5"), out)
 rc, out, _ = run(["gas", "--out", "r3", *short])
 rc, out, _ = run(["r1/snap_000000100.h5md", "r3/snap_000000100.h5md", "--out", "mix.h5"], exe=cg)
 check("cassini-cg refuses frames of different runs", rc == 2 and "another run" in out, out)
@@ -333,6 +338,9 @@ disk_full_case("injected failure on rank 1 mid-snapshot (rank 0 still writing)",
                "snap_000000100.h5md.partial", f"{work}/inj1")
 disk_full_case("injected failure of observables.h5md", ["gas", "--out", "inj2", *more],
                {"CASSINI_FAIL_WRITE": "observables.h5md"}, "observables.h5md", f"{work}/inj2")
+rc, out, _ = run(["r1", "--out", "inj_fields.h5"], exe=cg, env={"CASSINI_FAIL_WRITE": "fields"})
+check("cassini-cg: an injected write failure exits 4 naming the file, no fields.h5",
+      rc == 4 and "inj_fields.h5.partial" in out and not os.path.exists(f"{work}/inj_fields.h5"), f"rc={rc} {out}")
 tmpfs = f"{work}/tmpfs"
 os.makedirs(tmpfs)
 mounted = os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", tmpfs],
@@ -342,10 +350,16 @@ if mounted:
         disk_full_case("full tmpfs during a snapshot (2 ranks)", ["gas", "--out", f"{tmpfs}/run", *more], {},
                        ".h5md.partial", f"{tmpfs}/run")
         subprocess.run(["umount", tmpfs])
-        subprocess.run(["mount", "-t", "tmpfs", "-o", "size=150k", "tmpfs", tmpfs])
-        disk_full_case("full tmpfs during observables.h5md", ["gas", "--out", f"{tmpfs}/run", "--set", "time.end=4e-5",
-                                                              "--set", "output.observe_every=2e-7"], {},
-                       "observables.h5md", f"{tmpfs}/run")
+        subprocess.run(["mount", "-t", "tmpfs", "-o", "size=300k", "tmpfs", tmpfs])
+        rc, out, secs = run(["r1", "--grid", "60x40x40", "--out", f"{tmpfs}/fields.h5"], exe=cg, timeout=90)
+        check(f"cassini-cg on a full tmpfs: exit 4 in {secs:.1f} s naming the file and the reason, nothing that looks "
+              "complete", rc == 4 and "fields.h5.partial" in out and "No space left on device" in out
+              and not os.path.exists(f"{tmpfs}/fields.h5") and not os.path.exists(f"{tmpfs}/fields.xdmf"), f"rc={rc} {out}")
+        subprocess.run(["umount", tmpfs])
+        subprocess.run(["mount", "-t", "tmpfs", "-o", "size=100k", "tmpfs", tmpfs])
+        disk_full_case("full tmpfs during observables", ["gas", "--out", f"{tmpfs}/run", "--set", "time.end=2e-4",
+                                                         "--set", "output.observe_every=2e-7"], {},
+                       "observables.", f"{tmpfs}/run")
     finally:
         subprocess.run(["umount", tmpfs])
 else:

@@ -14,6 +14,9 @@
 #include <unistd.h>
 
 #include "cg/CoarseGrainer.hpp"
+#include "core/Version.hpp"
+#include "io/Hdf5Handle.hpp"
+#include "io/IoFailure.hpp"
 #include "io/Snapshot.hpp"
 #include "io/SnapshotSchema.hpp"
 
@@ -178,21 +181,35 @@ Loaded load(const std::string& path, int rank, int size, int copy) {
   return L;
 }
 
-void write_dataset(hid_t file, const std::string& name, const std::vector<hsize_t>& dims, const double* data) {
-  hid_t s = H5Screate_simple(int(dims.size()), dims.data(), nullptr);
-  hid_t d = H5Dcreate2(file, name.c_str(), H5T_NATIVE_DOUBLE, s, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
-  H5Dclose(d);
-  H5Sclose(s);
+// Every HDF5 call of the output is checked: a full disk or an I/O error ends the job naming the
+// file and the reason (exit 4), and the file stays under its .partial name.
+hid_t checked(hid_t id, const std::string& file) {
+  if (id < 0) cassini::io_failure(file, cassini::hdf5_failure_reason(file));
+  return id;
 }
 
-void write_attr(hid_t obj, const std::string& name, const std::string& value) {
-  hid_t t = H5Tcopy(H5T_C_S1);
-  H5Tset_size(t, value.size() + 1);
-  hid_t s = H5Screate(H5S_SCALAR);
-  hid_t a = H5Acreate2(obj, name.c_str(), t, s, H5P_DEFAULT, H5P_DEFAULT);
-  H5Awrite(a, t, value.c_str());
-  H5Aclose(a); H5Sclose(s); H5Tclose(t);
+void write_attr(hid_t obj, const std::string& name, const std::string& value, const std::string& path) {
+  const hid_t t = checked(H5Tcopy(H5T_C_S1), path);
+  checked(H5Tset_size(t, value.size() + 1), path);
+  const hid_t s = checked(H5Screate(H5S_SCALAR), path);
+  const hid_t a = checked(H5Acreate2(obj, name.c_str(), t, s, H5P_DEFAULT, H5P_DEFAULT), path);
+  checked(H5Awrite(a, t, value.c_str()), path);
+  checked(H5Aclose(a), path);
+  checked(H5Sclose(s), path);
+  checked(H5Tclose(t), path);
+}
+
+void write_dataset(hid_t file, const std::string& name, const std::vector<hsize_t>& dims, const double* data,
+                   const std::string& unit, const std::string& path) {
+  const hid_t s = checked(H5Screate_simple(int(dims.size()), dims.data(), nullptr), path);
+  const hid_t d = checked(H5Dcreate2(file, name.c_str(), H5T_NATIVE_DOUBLE, s, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path);
+  checked(H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), path);
+  if (!unit.empty()) {
+    const cassini::h5::WriteScope writing(path);  // a failure here also ends the job naming the file
+    cassini::h5::attr_utf8(d, "unit", {unit}, true);  // as H5MD's units: a variable-length string
+  }
+  checked(H5Dclose(d), path);
+  checked(H5Sclose(s), path);
 }
 
 // ParaView reads the fields through this sidecar: a co-rectilinear mesh of the grid points.
@@ -219,7 +236,8 @@ void write_xdmf(const std::string& out, const Grid& g, std::size_t frames) {
     spacing += h.str() + (d ? " " : "");
   }
   const std::string mesh = "3DCoRectMesh", geo = "ORIGIN_DXDYDZ";
-  std::ofstream x(fs::path(out).replace_extension(".xdmf"));
+  const std::string side = fs::path(out).replace_extension(".xdmf").string(), tmp = side + ".partial";
+  std::ofstream x(tmp);
   x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"cg\" GridType=\"Uniform\">\n"
     << "   <Information Name=\"frames\" Value=\"" << frames << "\"/>\n"
     << "   <Topology TopologyType=\"" << mesh << "\" Dimensions=\"" << mesh_dims << "\"/>\n"
@@ -236,6 +254,9 @@ void write_xdmf(const std::string& out, const Grid& g, std::size_t frames) {
       << name << "</DataItem>\n   </Attribute>\n";
   }
   x << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  x.close();
+  if (!x) cassini::io_failure(tmp, cassini::os_write_reason(tmp));
+  fs::rename(tmp, side);
 }
 
 }  // namespace
@@ -288,7 +309,19 @@ int main(int argc, char** argv) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   int code = 0;
   try {
-    if (app.count("--width") && !(width > 0)) fail("--width: expected a positive kernel width in metres, got " + std::to_string(width));
+    if (app.count("--width") && !(width > 0 && std::isfinite(width)))
+      fail("--width: expected a positive, finite kernel width in metres, got " + std::to_string(width));
+    if (!std::isfinite(margin)) fail("--margin: expected a finite length in metres >= 0, got " + std::to_string(margin));
+    double shear_given = 0;
+    if (background.rfind("shear:", 0) == 0) {
+      const std::string rate = background.substr(6);
+      char* end = nullptr;
+      shear_given = std::strtod(rate.c_str(), &end);
+      if (rate.empty() || end != rate.c_str() + rate.size() || !std::isfinite(shear_given))
+        fail("--background shear:RATE: expected a finite shear rate in 1/s, got '" + rate + "'");
+    } else if (background != "auto" && background != "shear" && background != "none") {
+      fail("--background: expected shear, shear:RATE, none or auto, got '" + background + "'");
+    }
     if (fs::exists(out) && fs::is_directory(out)) fail("--out " + out + " is a directory, expected an HDF5 file name");
     if (fs::exists(out) && !force) fail(out + " exists: pass --force to overwrite");
     files = select_frames(files, frames);
@@ -344,13 +377,16 @@ int main(int argc, char** argv) {
           width = 1e300;
           for (int d = 0; d < g.dims; ++d) width = std::min(width, 2 * g.h(d));
         }
+        for (int d = 0; d < g.dims; ++d)  // a kernel as wide as the box smears every field flat
+          if (width >= g.hi[d] - g.lo[d])
+            fail("--width " + std::to_string(width) + ": as wide as the grid along " + std::string(1, "xyz"[d]) + " (" +
+                 std::to_string(g.hi[d] - g.lo[d]) + " m): expected a kernel narrower than the box");
         sum.resize(g.size());
       }
       Background bg;
       if (background == "auto") bg.shear = L.shear_rate;
       else if (background == "shear") bg.shear = L.shear_rate;
-      else if (background.rfind("shear:", 0) == 0) bg.shear = std::stod(background.substr(6));
-      else if (background != "none") fail("--background: expected shear, shear:RATE, none or auto");
+      else if (background.rfind("shear:", 0) == 0) bg.shear = shear_given;
       Kernel kern(kernel, width, g.dims);
       Fields f;
       f.resize(g.size());
@@ -381,25 +417,28 @@ int main(int argc, char** argv) {
       for (int d = g.dims - 1; d >= 0; --d) shape.push_back(hsize_t(g.n[d]));  // C order: [z][y][x]
       auto with = [&](hsize_t c) { auto s = shape; if (c > 1) s.push_back(c); return s; };
       const std::string tmp = out + ".partial";
-      hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-      if (file < 0) fail("cannot create " + out);
+      const hid_t file = checked(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), tmp);
+      // Units per quantity: "volume" is m^D on a D-dimensional grid (2D: surface densities).
+      const std::string per = " m-" + std::to_string(g.dims);
+      const std::string per_m1 = g.dims == 1 ? "" : g.dims == 2 ? " m-1" : " m-2";  // m^(1-D)
+      const std::string stress_unit = g.dims == 1 ? "kg m s-2" : g.dims == 2 ? "kg s-2" : "kg m-1 s-2";  // m^(2-D)
       for (int d = 0; d < g.dims; ++d) {
         std::vector<double> c(g.n[d]);
         for (int k = 0; k < g.n[d]; ++k) c[k] = g.centre(d, k);
-        write_dataset(file, std::string("grid_") + "xyz"[d], {hsize_t(g.n[d])}, c.data());
+        write_dataset(file, std::string("grid_") + "xyz"[d], {hsize_t(g.n[d])}, c.data(), "m", tmp);
       }
-      write_dataset(file, "density", with(1), sum.density.data());
-      write_dataset(file, "momentum", with(3), sum.momentum.data());
-      write_dataset(file, "velocity", with(3), velocity.data());
-      write_dataset(file, "kinetic_stress", with(6), stress.data());
-      write_dataset(file, "contact_stress", with(9), sum.contact.data());
-      write_dataset(file, "wall_stress", with(9), sum.wall.data());
-      write_dataset(file, "stress", with(9), total.data());
-      write_dataset(file, "wall_traction", with(3), sum.traction.data());
-      write_dataset(file, "body_force_density", with(3), sum.body.data());
-      write_dataset(file, "velocity_fluctuation", with(1), fluct.data());
-      write_dataset(file, "background_fluctuation", with(1), bfluct.data());
-      hid_t root = H5Gopen2(file, "/", H5P_DEFAULT);
+      write_dataset(file, "density", with(1), sum.density.data(), "kg" + per, tmp);
+      write_dataset(file, "momentum", with(3), sum.momentum.data(), "kg" + per_m1 + " s-1", tmp);
+      write_dataset(file, "velocity", with(3), velocity.data(), "m s-1", tmp);
+      write_dataset(file, "kinetic_stress", with(6), stress.data(), stress_unit, tmp);
+      write_dataset(file, "contact_stress", with(9), sum.contact.data(), stress_unit, tmp);
+      write_dataset(file, "wall_stress", with(9), sum.wall.data(), stress_unit, tmp);
+      write_dataset(file, "stress", with(9), total.data(), stress_unit, tmp);
+      write_dataset(file, "wall_traction", with(3), sum.traction.data(), "kg" + per_m1 + " s-2", tmp);
+      write_dataset(file, "body_force_density", with(3), sum.body.data(), "kg" + per_m1 + " s-2", tmp);
+      write_dataset(file, "velocity_fluctuation", with(1), fluct.data(), "m s-1", tmp);
+      write_dataset(file, "background_fluctuation", with(1), bfluct.data(), "m s-1", tmp);
+      const hid_t root = checked(H5Gopen2(file, "/", H5P_DEFAULT), tmp);
       std::ostringstream desc;
       desc << "kernel " << kernel << ", width " << width << " m, " << files.size() << " frame(s), " << g.dims
            << "D grid; density is mass per " << (g.dims == 3 ? "volume" : g.dims == 2 ? "area (surface density)" : "length")
@@ -408,13 +447,16 @@ int main(int argc, char** argv) {
               "int psi ds (b = centre - contact point), stress = kinetic + contact + wall; wall_traction = sum_walls f psi(r - c), "
               "body_force_density = sum F psi (gravity, drag, frame forces); at rest div(stress) = wall_traction + "
               "body_force_density; fluctuations are rms speeds about the local mean velocity and about the background flow";
-      write_attr(root, "description", desc.str());
-      write_attr(root, "kernel", kernel);
-      write_attr(root, "width", std::to_string(width));
-      H5Gclose(root);
-      H5Fclose(file);
-      fs::rename(tmp, out);
+      write_attr(root, "description", desc.str(), tmp);
+      write_attr(root, "kernel", kernel, tmp);
+      write_attr(root, "width", std::to_string(width), tmp);
+      write_attr(root, "creator", std::string("cassini-cg ") + cassini::version() + " (commit " + cassini::commit() + ")", tmp);
+      checked(H5Gclose(root), tmp);
+      checked(H5Fclose(file), tmp);  // the data reach the disk here: a full disk shows now
+      if (cassini::injected_write_failure("fields", rank))
+        cassini::io_failure(tmp, "No space left on device (injected by CASSINI_FAIL_WRITE)");
       if (g.dims >= 2) write_xdmf(out, g, files.size());
+      fs::rename(tmp, out);  // last: a complete fields file only once its sidecar is written
       std::cout << "cassini-cg: " << files.size() << " frame(s) -> " << out << " (" << desc.str() << ")\n";
     }
   } catch (const std::exception& e) {

@@ -1,6 +1,7 @@
 #include "io/ObservablesFile.hpp"
 
 #include <cstdint>
+#include <string>
 
 #include "io/Hdf5Handle.hpp"
 
@@ -19,6 +20,14 @@ void create_series(hid_t parent, const char* name, hid_t type, hsize_t width) {
   Handle plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "dcpl");
   check(H5Pset_chunk(plist, rank, chunk), "chunk");
   Handle d(H5Dcreate2(parent, name, type, space, H5P_DEFAULT, plist, H5P_DEFAULT), H5Dclose, name);
+}
+
+// The unit of each of observables.csv's own quantities (the modules' columns have none recorded).
+std::string unit_of(const std::string& name) {
+  if (name == "kinetic_energy" || name == "elastic_energy") return "kg m2 s-2";
+  if (name == "momentum") return "kg m s-1";
+  if (name == "velocity_variance" || name == "granular_temperature") return "m2 s-2";
+  return "";  // counts and ratios
 }
 
 // Appends one row to an extendible series.
@@ -50,12 +59,22 @@ void ObservablesFile::append(long step, double time, const Row& row) {
     Handle file(H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "create " + path_);
     h5::h5md_header(file);
     {
+      // One clock for every observable (sampled together): the first element's step and
+      // time, hard-linked into the others (H5MD 1.1 shared step/time).
       Handle obs = h5::group(file, "observables");
+      const std::string clock = "/observables/" + row.front().first;
       for (const auto& [name, value] : row) {
         Handle g = h5::group(obs, name);
-        create_series(g, "step", H5T_NATIVE_INT64, 1);
-        create_series(g, "time", H5T_NATIVE_DOUBLE, 1);
+        if (name == row.front().first) {
+          create_series(g, "step", H5T_NATIVE_INT64, 1);
+          create_series(g, "time", H5T_NATIVE_DOUBLE, 1);
+          h5::unit(g, "time", "s");
+        } else {
+          check(H5Lcreate_hard(g, (clock + "/step").c_str(), g, "step", H5P_DEFAULT, H5P_DEFAULT), "link step");
+          check(H5Lcreate_hard(g, (clock + "/time").c_str(), g, "time", H5P_DEFAULT, H5P_DEFAULT), "link time");
+        }
         create_series(g, "value", H5T_NATIVE_DOUBLE, value.size());
+        h5::unit(g, "value", unit_of(name));
       }
     }
     file.close_checked("close " + path_);
@@ -65,8 +84,10 @@ void ObservablesFile::append(long step, double time, const Row& row) {
   const std::int64_t s = step;
   for (const auto& [name, value] : row) {
     Handle g(H5Gopen2(file, ("observables/" + name).c_str(), H5P_DEFAULT), H5Gclose, "observables/" + name);
-    append_row(g, "step", H5T_NATIVE_INT64, &s);
-    append_row(g, "time", H5T_NATIVE_DOUBLE, &time);
+    if (name == row.front().first) {
+      append_row(g, "step", H5T_NATIVE_INT64, &s);
+      append_row(g, "time", H5T_NATIVE_DOUBLE, &time);
+    }
     append_row(g, "value", H5T_NATIVE_DOUBLE, value.data());
   }
   file.close_checked("close " + path_);

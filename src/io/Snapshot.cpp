@@ -69,14 +69,44 @@ void rows_dataset(hid_t parent, const std::string& name, hid_t type, hsize_t tot
   check(H5Dwrite(d, type, mem, file_space, dxpl, data ? data : dummy), "write " + name);
 }
 
-// An H5MD time-dependent element holding one frame: name/{step, time, value}.
-void element(hid_t parent, const std::string& name, hid_t type, hsize_t total, hsize_t offset, hsize_t rows,
-             hsize_t width, const void* data, long step, double time, hid_t dxpl) {
-  Handle g = group(parent, name);
+// The frame's clock: the first element's step and time, which every other element of the
+// frame shares by hard links (H5MD 1.1 allows shared step/time datasets).
+constexpr const char* kClock = "/particles/grains/id";
+
+// An H5MD time-dependent element holding one frame: name/{step, time, value}; the value
+// carries its unit (none for a count or a label).
+// g/step and g/time: the frame's clock, created by the first element, linked by the others.
+void frame_clock(hid_t g, long step, double time, hid_t dxpl) {
+  const std::string clock(kClock);
+  if (H5Oexists_by_name(g, (clock + "/time").c_str(), H5P_DEFAULT) > 0) {
+    check(H5Lcreate_hard(g, (clock + "/step").c_str(), g, "step", H5P_DEFAULT, H5P_DEFAULT), "link step");
+    check(H5Lcreate_hard(g, (clock + "/time").c_str(), g, "time", H5P_DEFAULT, H5P_DEFAULT), "link time");
+    return;
+  }
   const std::int64_t s = step;
   small_dataset(g, "step", H5T_NATIVE_INT64, {1}, &s, dxpl);
   small_dataset(g, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+  h5::unit(g, "time", "s");
+}
+
+void element(hid_t parent, const std::string& name, hid_t type, hsize_t total, hsize_t offset, hsize_t rows,
+             hsize_t width, const void* data, long step, double time, hid_t dxpl, const std::string& unit) {
+  Handle g = group(parent, name);
+  frame_clock(g, step, time, dxpl);
   rows_dataset(g, "value", type, total, offset, rows, width, data, dxpl);
+  h5::unit(g, "value", unit);
+}
+
+// The unit of each particle column (the modules' own columns have none recorded). position has
+// none: MDAnalysis (2.x) knows no length unit "m" and refuses the file; the box edges and
+// parameters@units say metres.
+std::string unit_of(const std::string& column) {
+  static const std::map<std::string, std::string> units = {
+      {"radius", "m"},  {"mass", "kg"},       {"velocity", "m s-1"}, {"force", "N"},
+      {"body_force", "N"}, {"omega", "s-1"},  {"torque", "N m"},
+      {"wall_xi", "m"},       {"wall_impact", "m s-1"},   {"wall_roll", "m"}};
+  const auto it = units.find(column);
+  return it == units.end() ? "" : it->second;
 }
 
 // This rank's rows [offset, offset + rows) of a table of `total` rows spread over the ranks.
@@ -182,7 +212,8 @@ void write_grains(hid_t grains, const std::vector<GrainColumn>& columns, const s
       }
     data = c.type == GrainColumn::Int64 ? static_cast<const void*>(i64.data())
            : c.type == GrainColumn::Int32 ? static_cast<const void*>(i32.data()) : static_cast<const void*>(real.data());
-    element(grains, c.name, c.hdf5_type(), block.total, block.offset, block.rows, c.width, data, sim.step_count, sim.time, dxpl);
+    element(grains, c.name, c.hdf5_type(), block.total, block.offset, block.rows, c.width, data, sim.step_count, sim.time, dxpl,
+            unit_of(c.name));
     if (first == 0 && injected_write_failure(file, sim.domain.rank))
       io_failure(file, "No space left on device (injected by CASSINI_FAIL_WRITE)");
     first += c.width;
@@ -196,10 +227,10 @@ void write_box(hid_t grains, const Simulation& sim, hid_t dxpl) {
   const double time = sim.time;
   {
     Handle box = group(grains, "box");
-    attr_array<int>(box, "dimension", H5T_NATIVE_INT, {3});
-    std::string bounds;
-    for (int d = 0; d < 3; ++d) bounds += std::string(d ? "," : "") + (dom.periodic(d) || (d == 1 && dom.shear.enabled) ? "periodic" : "none");
-    attr_string(box, "boundary", bounds);
+    h5::attr_int(box, "dimension", 3);
+    std::vector<std::string> bounds;
+    for (int d = 0; d < 3; ++d) bounds.push_back(dom.periodic(d) || (d == 1 && dom.shear.enabled) ? "periodic" : "none");
+    h5::attr_strings(box, "boundary", bounds);
     // Edge vectors as rows; the Lees-Edwards offset is the xy tilt (wrapped to [-Lx/2, Lx/2)).
     double tilt = 0;
     if (dom.shear.enabled) {
@@ -208,11 +239,12 @@ void write_box(hid_t grains, const Simulation& sim, hid_t dxpl) {
     }
     const double edges[9] = {dom.length[0], 0, 0, tilt, dom.length[1], 0, 0, 0, dom.length[2]};
     Handle eg = group(box, "edges");
-    small_dataset(eg, "step", H5T_NATIVE_INT64, {1}, &step, dxpl);
-    small_dataset(eg, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
+    frame_clock(eg, step, time, dxpl);
     small_dataset(eg, "value", H5T_NATIVE_DOUBLE, {1, 3, 3}, edges, dxpl);
+    h5::unit(eg, "value", "m");
     const double lo[3] = {dom.lo[0], dom.lo[1], dom.lo[2]};
     small_dataset(box, "origin", H5T_NATIVE_DOUBLE, {3}, lo, dxpl);
+    h5::unit(box, "origin", "m");
   }
   if (!dom.shear.enabled) return;
   Handle le = group(grains, "lees_edwards");
@@ -220,10 +252,13 @@ void write_box(hid_t grains, const Simulation& sim, hid_t dxpl) {
   const std::int32_t direction = 0, normal = 1;
   for (const char* nm : {"offset", "direction", "normal"}) {
     Handle g = group(le, nm);
-    small_dataset(g, "step", H5T_NATIVE_INT64, {1}, &step, dxpl);
-    small_dataset(g, "time", H5T_NATIVE_DOUBLE, {1}, &time, dxpl);
-    if (std::string(nm) == "offset") small_dataset(g, "value", H5T_NATIVE_DOUBLE, {1}, &offset_unwrapped, dxpl);
-    else small_dataset(g, "value", H5T_NATIVE_INT32, {1}, nm[0] == 'd' ? &direction : &normal, dxpl);
+    frame_clock(g, step, time, dxpl);
+    if (std::string(nm) == "offset") {
+      small_dataset(g, "value", H5T_NATIVE_DOUBLE, {1}, &offset_unwrapped, dxpl);
+      h5::unit(g, "value", "m");
+    }
+    else
+      small_dataset(g, "value", H5T_NATIVE_INT32, {1}, nm[0] == 'd' ? &direction : &normal, dxpl);
   }
 }
 

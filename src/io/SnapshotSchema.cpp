@@ -184,9 +184,14 @@ std::string SnapshotReader::attribute(const std::string& object, const std::stri
   if (H5Aexists_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT) <= 0) return "";
   h5::Handle a(H5Aopen_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, "attr " + name);
   h5::Handle type(H5Aget_type(a), H5Tclose, "type");
-  std::string text(H5Tget_size(type), '\0');
-  if (H5Aread(a, type, text.data()) < 0) return "";
-  return text.c_str();  // drop the terminating NUL
+  h5::Handle space(H5Aget_space(a), H5Sclose, "space");
+  // A string or an array of fixed-length strings (box@boundary): the entries comma-joined.
+  const std::size_t width = H5Tget_size(type), n = std::max<hssize_t>(1, H5Sget_simple_extent_npoints(space));
+  std::string raw(width * n, '\0');
+  if (H5Aread(a, type, raw.data()) < 0) return "";
+  std::string text;
+  for (std::size_t k = 0; k < n; ++k) text += (k ? "," : "") + std::string(raw.c_str() + k * width);
+  return text;
 }
 
 }  // namespace cassini
