@@ -320,6 +320,30 @@ rc, out, _ = run(["r1/snap_000000100.h5md", "r2/snap_000000150.h5md", "--out", "
 check("cassini-cg averages a run with its continuation", rc == 0, out)
 
 
+# ---- 5b. scripts/run-trajectory: named errors, exit 2 for bad input, 4 for a failed write
+traj = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scripts", "run-trajectory")
+
+
+def trajectory(args):
+    p = subprocess.run([traj, *args], cwd=work, capture_output=True, text=True)
+    return p.returncode, p.stdout + p.stderr
+
+
+os.makedirs(f"{work}/trunc")
+shutil.copy(f"{work}/r1/snap_000000000.h5md", f"{work}/trunc/")
+with open(f"{work}/r1/snap_000000050.h5md", "rb") as src, open(f"{work}/trunc/snap_000000050.h5md", "wb") as dst:
+    dst.write(src.read(3000))
+rc, out = trajectory(["trunc"])
+check("run-trajectory names a truncated frame (exit 2)", rc == 2 and "snap_000000050.h5md" in out
+      and "Traceback" not in out and not os.path.exists(f"{work}/trunc/trajectory.h5md"), out)
+rc, out = trajectory(["r1/observables.h5md"])
+check("run-trajectory given a file, not a run directory (exit 2)", rc == 2 and "run directory" in out
+      and "Traceback" not in out, out)
+rc, out = trajectory(["r1"])
+with h5py.File(f"{work}/r1/trajectory.h5md", "r") as f:
+    creator_ok = "version" in f["h5md/creator"].attrs and "name" in f["h5md/author"].attrs
+check("run-trajectory's file has h5md/author and creator@version", rc == 0 and creator_ok, out)
+
 # ---- 6. a write failure on any rank ends the job, names the file and the reason
 def disk_full_case(label, args, env, expect_file, run_dir):
     rc, out, secs = run(args, env=env, timeout=90)
@@ -355,6 +379,17 @@ if mounted:
         check(f"cassini-cg on a full tmpfs: exit 4 in {secs:.1f} s naming the file and the reason, nothing that looks "
               "complete", rc == 4 and "fields.h5.partial" in out and "No space left on device" in out
               and not os.path.exists(f"{tmpfs}/fields.h5") and not os.path.exists(f"{tmpfs}/fields.xdmf"), f"rc={rc} {out}")
+        subprocess.run(["umount", tmpfs])
+        subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8k", "tmpfs", tmpfs])
+        with open(f"{tmpfs}/filler", "wb") as filler:  # the disk is full before the script starts
+            try:
+                filler.write(b"x" * 16384)
+            except OSError:
+                pass
+        rc, out = trajectory(["r1", "--out", f"{tmpfs}/traj.h5md"])
+        check("run-trajectory on a full disk: exit 4 naming the file, nothing left", rc == 4 and "traj.h5md" in out
+              and "Traceback" not in out and not os.path.exists(f"{tmpfs}/traj.h5md")
+              and not os.path.exists(f"{tmpfs}/traj.h5md.partial"), f"rc={rc} {out}")
         subprocess.run(["umount", tmpfs])
         subprocess.run(["mount", "-t", "tmpfs", "-o", "size=100k", "tmpfs", tmpfs])
         disk_full_case("full tmpfs during observables", ["gas", "--out", f"{tmpfs}/run", "--set", "time.end=2e-4",
