@@ -1,10 +1,12 @@
 """Driver of scripts/accuracy-cost. Every number comes from a cassini run made here."""
-import csv, glob, json, math, os, subprocess, sys, tempfile, time
+import glob, math, os, subprocess, sys, time
 
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Hill, Run
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 EXE = os.path.join(ROOT, "build", "cassini")
@@ -13,7 +15,7 @@ FIG = os.path.join(DOCS, "accuracy-cost")
 ENV = dict(os.environ, OMPI_MCA_btl_vader_single_copy_mechanism="none")
 # Runs are kept (by name, which encodes their settings) so an interrupted study resumes.
 TMP = os.environ.get("ACCURACY_WORKDIR", os.path.join(ROOT, "build", "accuracy-cost-work"))
-OMEGA0 = math.sqrt(6.674e-11 * 5.68e26 / 1.17e8**3)
+OMEGA0 = Hill({}).omega0  # hill's default Saturn and orbit
 
 
 def run(case_text, sets=(), files=None, name="run"):
@@ -28,10 +30,9 @@ def run(case_text, sets=(), files=None, name="run"):
         r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
         if r.returncode != 0:
             raise RuntimeError(f"{name}: {r.stdout[-400:]} {r.stderr[-400:]}")
-    summary = json.load(open(os.path.join(out, "summary.json")))
-    obs = list(csv.DictReader(open(os.path.join(out, "observables.csv"))))
-    dumps = sorted(glob.glob(os.path.join(out, "dump", "step_*.txt")))
-    last = np.loadtxt(dumps[-1], ndmin=2) if dumps else None
+    r = Run(out)
+    summary, obs = r.summary, r.observable_rows()
+    last = r.dump()[1] if glob.glob(os.path.join(out, "dump", "step_*.txt")) else None
     return dict(wall=summary["wall_seconds"], summary=summary, obs=obs, last=last)
 
 

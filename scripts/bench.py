@@ -1,5 +1,7 @@
 """Drives scripts/bench: identical gas scene in cassini and LAMMPS, medians of repeats."""
-import math, os, re, shutil, statistics, subprocess, sys, tempfile, json
+import math, os, re, shutil, statistics, subprocess, sys, tempfile
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Run
 
 REPEATS = int(sys.argv[1]) if __name__ == "__main__" and len(sys.argv) > 1 else 3
 STEPS = 1000
@@ -82,7 +84,7 @@ def run_cassini(n, friction, ranks, tmp):
     r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
     if r.returncode != 0:
         sys.exit("cassini failed:\n" + r.stdout + r.stderr)
-    s = json.load(open(os.path.join(out, "summary.json")))
+    s = Run(out).summary
     stages = {k: v["mean"] for k, v in s.get("stage_seconds", {}).items()}
     return s["particle_steps_per_second"] / ranks, peak_bytes(), stages
 

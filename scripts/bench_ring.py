@@ -1,9 +1,11 @@
 """Drives scripts/bench-ring: CPU per orbit of the ring patch in cassini (plain and multi-rate
 schemes, one rank) and in REBOUND (../shared/peers/rebound/run.sh), one after the other."""
-import json, os, re, resource, statistics, subprocess, sys, tempfile
+import os, re, resource, statistics, subprocess, sys, tempfile
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Hill, Run
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-T0 = 40840.0
+T0 = Hill({}).period  # one orbit of cases/propeller (hill's default Saturn and orbit)
 PEER = os.path.abspath(os.path.join(ROOT, "../shared/peers/rebound/run.sh"))
 if not os.path.exists(PEER):
     PEER = "/work/shared/peers/rebound/run.sh"
@@ -24,8 +26,7 @@ def cassini(case, orbits, overrides):
         before = child_cpu()
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         cpu = child_cpu() - before
-        with open(out + "/run/summary.json") as f:
-            summary = json.load(f)
+        summary = Run(out + "/run").summary
     return cpu / orbits, summary
 
 

@@ -4,11 +4,13 @@ A. steady sigma against v_c, and the same patch with a constant e equal to the B
    takes the law's e;
 B. hot and cold starts reach the same sigma: the law gives the ring a thermal equilibrium set
    by v_c, whatever the start."""
-import csv, json, math, os, statistics, subprocess, tempfile, time
+import math, os, statistics, subprocess, sys, tempfile, time
 from concurrent.futures import ThreadPoolExecutor
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Hill, Run
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-T0 = 40840.0
+T0 = Hill({}).period  # one orbit (hill's default Saturn and orbit)
 OMEGA = 2 * math.pi / T0
 A = 2.0
 VC = 7.7e-5  # Bridges et al. (1984)
@@ -39,7 +41,7 @@ def gas(vc, seed, hot, e=None):
         cmd += ["--set", o]
     t = time.time()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    rows = list(csv.DictReader(open(os.path.join(out, "observables.csv"))))
+    rows = Run(out).observable_rows()
     return n, rows, time.time() - t
 
 

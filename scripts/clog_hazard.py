@@ -33,9 +33,11 @@ at the (s+1)-th attempt | s passed) would be flat, and <s> = (1 - p) / p. This p
    rises when the last runs clog
    means the runs never reached a stationary state: their <s> is that of the transient.
 """
-import csv
+import os
 import math
 import sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import read_ensemble
 
 
 def chi2_quantile(k, q):
@@ -69,7 +71,7 @@ def avalanche_records(paths, first):
     run on; the open avalanche of a run that reached its time limit is censored."""
     out = []
     for path in paths:
-        for r in csv.DictReader(open(path)):
+        for r in read_ensemble(path, raw=True):
             if r["ended"].startswith("guard"):
                 continue
             sizes = [int(float(x)) for x in r.get("avalanches", "").split()]
@@ -91,7 +93,7 @@ def records(paths, count=False, first=None):
     t_key, s_key = ("count_time", "escapees_after_count") if count else ("front_time", "escapees_after_front")
     out = []
     for path in paths:
-        for r in csv.DictReader(open(path)):
+        for r in read_ensemble(path, raw=True):
             if r["ended"].startswith("guard") or r.get(s_key, "") == "":
                 continue  # stopped by a guard, or counting never started
             clogged = r["clogged"] == "1"

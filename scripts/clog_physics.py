@@ -8,14 +8,15 @@ runs stopped by a guard are counted apart and left out. The ratio to `base` has 
 propagated standard error. `longest pause` is the longest standstill at the neck that a
 passage ended, over all runs: the clog window must exceed it (docs/clogging.md).
 """
-import csv
 import math
 import os
 import sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import read_ensemble
 
 
 def load(path):
-    rows = list(csv.DictReader(open(path)))
+    rows = read_ensemble(path, raw=True)
     ok = [r for r in rows if not r["ended"].startswith("guard")]
     s = [float(r["escapees"]) for r in ok]
     n = len(s)

@@ -13,12 +13,13 @@ Runs stopped by a guard are left out. A run that reached the time limit without 
 with its s so far (a lower bound); a point where most runs did so is only a lower bound on
 <s>: it is not fitted, and each fit's value there is printed beside it. --fit-from X / --fit-to Y fit only X <= D/d <= Y.
 """
-import csv
 import math
 import os
 import sys
 
 import numpy as np
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import read_ensemble
 
 
 def points(root, variant):
@@ -27,7 +28,7 @@ def points(root, variant):
         path = os.path.join(root, d, variant, "ensemble.csv")
         if not d.startswith("Dd_") or not os.path.exists(path):
             continue
-        rows = [r for r in csv.DictReader(open(path)) if not r["ended"].startswith("guard")]
+        rows = [r for r in read_ensemble(path, raw=True) if not r["ended"].startswith("guard")]
         s = np.array([float(r["escapees"]) for r in rows])
         if len(s) < 2:
             continue

@@ -12,7 +12,9 @@ O(G log G) on G grid nodes plus O(N) deposit and interpolation; the pairs are O(
 surface density. Rank counts above the cores are oversubscribed: their volumes are real, their
 times are not.
 """
-import argparse, json, os, subprocess, tempfile
+import argparse, os, subprocess, sys, tempfile
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Run
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 
@@ -42,8 +44,7 @@ def main():
             for o in over:
                 cmd += ["--set", o]
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-            with open(tmp + "/run/summary.json") as f:
-                s = json.load(f)
+            s = Run(tmp + "/run").summary
         wall, steps, sg = s["wall_seconds"], s["steps"], s["self_gravity"]
         print(f"{L:6.0f} {n:8d} {str(sg['grid']):>14} {ranks:5d} {wall / steps:9.2e} {100 * sg['mesh_seconds'] / wall:7.1f} "
               f"{100 * sg['interpolation_and_pairs_seconds'] / wall:8.1f} {s['particle_steps_per_second']:17.3e} "

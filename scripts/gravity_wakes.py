@@ -23,10 +23,10 @@ import math
 import os
 import sys
 
-import h5py
 import numpy as np
 
-G = 6.674e-11
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import G, Snapshot
 
 
 def snapshot(path):
@@ -37,16 +37,10 @@ def snapshot(path):
         return {"position": d[:, 0:3], "velocity": d[:, 3:6], "radius": d[:, 6], "mass": d[:, 7], "time": t,
                 "offset": 1.5 * omega * Ly * t, "L": np.array([Lx, Ly, Lz]), "lo": -0.5 * np.array([Lx, Ly, Lz]),
                 "shear_rate": 1.5 * omega, "omega": omega}
-    with h5py.File(path, "r") as f:
-        g = f["particles/grains"]
-        s = {k: g[k + "/value"][0] for k in ("position", "velocity", "mass", "radius")}
-        s["time"] = float(g["position/time"][0])
-        s["offset"] = float(g["lees_edwards/offset/value"][0]) if "lees_edwards" in g else 0.0
-        edges = g["box/edges/value"][0]
-        s["L"] = np.array([edges[0, 0], edges[1, 1], edges[2, 2]])
-        s["lo"] = g["box/origin"][:]
-        s["shear_rate"] = float(f["parameters/shear_rate"][0])
-        s["omega"] = float(f["parameters/frame_rotation"][0])
+    snap = Snapshot(path, columns=["position", "velocity", "mass", "radius"])
+    s = dict(snap.columns)
+    s.update(time=snap.time, offset=snap.offset, L=snap.lengths, lo=snap.origin, shear_rate=snap.shear_rate,
+             omega=snap.frame_rotation)
     return s
 
 

@@ -3,11 +3,13 @@ A. steady ring gas: velocity dispersion and collision frequency, tau 0.01 / 0.1,
 B. cooling of a hot ring gas (Haff's law in the Hill frame, before the shear heats it back)
 C. the propeller after one orbit (cases/propeller as shipped): both thesis criteria
 Writes docs/multirate/study.md (tables) and prints them."""
-import csv, json, math, os, statistics, subprocess, sys, tempfile
+import json, math, os, statistics, subprocess, sys, tempfile
 from concurrent.futures import ThreadPoolExecutor
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Hill, Run
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-T0 = 40840.0
+T0 = Hill({}).period  # one orbit (hill's default Saturn and orbit)
 OMEGA = 2 * math.pi / T0
 A = 2.0
 LANES = int(os.environ.get("STUDY_LANES", "2"))
@@ -22,8 +24,7 @@ def run(case, overrides, tag):
     for o in overrides:
         cmd += ["--set", o]
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    rows = list(csv.DictReader(open(os.path.join(out, "observables.csv"))))
-    summary = json.load(open(os.path.join(out, "summary.json")))
+    rows, summary = Run(out).observable_rows(), Run(out).summary
     return out, rows, summary
 
 

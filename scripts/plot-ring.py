@@ -3,23 +3,25 @@
 and the velocity deviation from the Keplerian shear near the moonlet.
    /usr/bin/python3 scripts/plot-ring.py RUN_DIR [OUT.png]
 """
-import glob, math, os, re, sys
+import math, os, sys
 
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Run, RunError
+
 run = sys.argv[1]
 out = sys.argv[2] if len(sys.argv) > 2 else os.path.join(run, "ring.png")
-files = glob.glob(os.path.join(run, "dump", "step_*.rank*.txt"))
-if not files:
-    sys.exit(f"{run}: no dumps (set output.dump_every)")
-last = max(int(re.search(r"step_(\d+)", f).group(1)) for f in files)
-data = np.vstack([np.loadtxt(f, ndmin=2) for f in files if f"step_{last:09d}." in f])
-time = float(open(next(f for f in files if f"step_{last:09d}." in f)).readline().split()[4])
+try:
+    ring = Run(run)
+    time, data = ring.dump()
+    omega0 = ring.hill().omega0
+except RunError as e:
+    sys.exit(f"plot-ring: error: {e}")
 x, y, vx, vy, a = data[:, 3], data[:, 4], data[:, 6], data[:, 7], data[:, 2]
-omega0 = math.sqrt(6.674e-11 * 5.68e26 / 1.17e8**3)
 
 fig, (ax1, ax3, ax2) = plt.subplots(3, 1, figsize=(11, 11))
 # Surface density Sigma = 3 rho / (4 a) in the thesis convention = mass per area on the plane.

@@ -6,7 +6,7 @@ linecut.png (Sigma along y at x = 990 m) and criteria.json:
   contrast   Sigma_max / Sigma_min along x = 990 m, ignoring 2w near y = +-Ly/2 (propeller if > 2)
   v_H, dv_y  Hill velocity h Omega0 and the radial velocity dispersion (propeller if v_H > dv_y)
 """
-import argparse, glob, json, math, os, re, subprocess, sys
+import argparse, json, os, subprocess, sys
 
 import h5py
 import matplotlib
@@ -15,8 +15,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-G, MS, R0 = 6.674e-11, 5.68e26, 1.17e8
-OMEGA0 = math.sqrt(G * MS / R0**3)
+sys.path.insert(0, os.path.join(ROOT, "python"))
+from cassini_tools import Run, RunError
 
 ap = argparse.ArgumentParser()
 ap.add_argument("run")
@@ -31,12 +31,16 @@ a = ap.parse_args()
 out = a.out or a.run
 os.makedirs(out, exist_ok=True)
 
-snaps = sorted(glob.glob(os.path.join(a.run, "snap_*.h5md")))
+try:
+    run = Run(a.run)
+    snaps = run.frames()
+    hill = run.hill()
+except RunError as e:
+    sys.exit(f"propeller_analysis: error: {e}")
 if not snaps:
     sys.exit(f"{a.run}: no snapshots (run with output.snapshot_every)")
-times = [float(h5py.File(s)["parameters/time_offset_dt"][0]) for s in snaps]
-t_end = max(times) if a.end is None else max(t for t in times if t <= a.end + 1e-6)
-frames = [s for s, t in zip(snaps, times) if t_end - a.window <= t <= t_end]
+t_end = max(s.time for s in snaps) if a.end is None else max(s.time for s in snaps if s.time <= a.end + 1e-6)
+frames = [s.path for s in snaps if t_end - a.window <= s.time <= t_end]
 fields = os.path.join(out, "fields.h5")
 mpirun = ["mpirun", "--oversubscribe"] + (["--allow-run-as-root"] if os.getuid() == 0 else [])
 env = dict(os.environ, OMPI_MCA_btl_vader_single_copy_mechanism="none")
@@ -77,13 +81,11 @@ plt.axvspan(y[0], -Ly / 2 + 2 * a.width, color="0.9"); plt.axvspan(Ly / 2 - 2 * 
 plt.xlabel("y (m)"); plt.ylabel("Sigma (kg/m^2)"); plt.title(f"x = 990 m: Sigma_max/Sigma_min = {contrast:.2f}")
 plt.tight_layout(); plt.savefig(os.path.join(out, "linecut.png"), dpi=110); plt.close()
 
-h = R0 * (a.moonlet_mass / (3 * MS)) ** (1 / 3)
-v_h = h * OMEGA0
-# radial dispersion: particle data of the last frame, relative to the shear flow
-last = h5py.File(frames[-1])
-vy = last["particles/grains/velocity/value"][0][:, 1]
-if "particles/grains/le_copy" in last:
-    vy = vy[last["particles/grains/le_copy/value"][0].ravel() == a.copy]
+h = hill.hill_radius(a.moonlet_mass)
+v_h = h * hill.omega0
+# radial dispersion: particle data of the last frame (one copy of the box under modified
+# Lees-Edwards boundaries), relative to the shear flow
+vy = snaps[[s.path for s in snaps].index(frames[-1])].read(columns=["velocity", "le_copy"], copy=a.copy).velocity[:, 1]
 dv_y = float(np.std(vy))
 result = dict(time=t_end, frames=len(frames), contrast=contrast, propeller_by_contrast=contrast > 2,
               hill_radius=h, v_H=v_h, dv_y=dv_y, propeller_by_velocity=v_h > dv_y)

@@ -14,17 +14,18 @@ LE2 (the unperturbed ring). The steady state is the last two orbits (4 windows);
 value of e comes with a bootstrap over seeds and windows. Writes series.csv, steady.csv,
 summary.json and figures into DIR (default runs/propeller-equilibrium).
 """
-import argparse, glob, json, math, os, subprocess, sys, time
+import argparse, json, os, subprocess, sys, time
 from concurrent.futures import ThreadPoolExecutor
 
-import h5py
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-G, MS, R0 = 6.674e-11, 5.68e26, 1.17e8
-OMEGA0 = math.sqrt(G * MS / R0**3)
-T0 = 2 * math.pi / OMEGA0
-R_HILL = R0 * (1.27e10 / (3 * MS)) ** (1 / 3)
+sys.path.insert(0, os.path.join(ROOT, "python"))
+from cassini_tools import Hill, Run, Snapshot
+
+HILL = Hill({})  # cases/propeller: hill's default Saturn and orbit
+OMEGA0, T0 = HILL.omega0, HILL.period
+R_HILL = HILL.hill_radius(1.27e10)
 V_HILL = R_HILL * OMEGA0
 
 ap = argparse.ArgumentParser()
@@ -91,11 +92,9 @@ def dispersions(snap):
     """Radial velocity dispersion of LE1 upstream of the moonlet, away from it (|y| > 3 r_H,
     1-9 km before it: material that has not met it; downstream its wakes' coherent motion would
     count), and of LE2 (the unperturbed ring)."""
-    f = h5py.File(snap)
-    g = f["particles/grains"]
-    x = g["position/value"][0]
-    vy = g["velocity/value"][0][:, 1]
-    copy = g["le_copy/value"][0].ravel() if "le_copy" in g else np.zeros(len(vy), int)
+    s = Snapshot(snap, columns=["position", "velocity", "le_copy"])
+    x, vy = s.position, s.velocity[:, 1]
+    copy = s.le_copy.ravel() if "le_copy" in s.columns else np.zeros(len(vy), int)
     upstream = -x[:, 0] * np.sign(x[:, 1])
     far = (copy == 0) & (np.abs(x[:, 1]) > 3 * R_HILL) & (upstream > 1000)
     le2 = copy == 1
@@ -106,7 +105,8 @@ def dispersions(snap):
 def analyse(r):
     d = os.path.join(a.out, r["name"])
     rows = []
-    last = max(float(h5py.File(s)["parameters/time_offset_dt"][0]) for s in glob.glob(os.path.join(d, "snap_*.h5md")))
+    frames = Run(d).frames()
+    last = max(f.time for f in frames)
     for k in range(1, 2 * a.orbits + 1):
         end = k * T0 / 2
         if end > last + 1:  # a run a guard stopped early has no later windows
@@ -116,8 +116,7 @@ def analyse(r):
             subprocess.run(["/usr/bin/python3", os.path.join(ROOT, "scripts", "propeller_analysis.py"), d, "--end", str(end),
                             "--window", str(T0 / 2 - 1), "--out", res], check=True, stdout=subprocess.DEVNULL)
         c = json.load(open(os.path.join(res, "criteria.json")))
-        snap = sorted(glob.glob(os.path.join(d, "snap_*.h5md")), key=lambda s: abs(
-            float(h5py.File(s)["parameters/time_offset_dt"][0]) - c["time"]))[0]
+        snap = min(frames, key=lambda f: abs(f.time - c["time"])).path
         far, le2, n1 = dispersions(snap)
         rows.append(dict(run=r["name"], boundary=r["boundary"], law=r["law"], e=r.get("e", -1.0), seed=r["seed"],
                          orbit=c["time"] / T0, contrast=c["contrast"], dv_y=c["dv_y"], v_H=c["v_H"],

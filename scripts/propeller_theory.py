@@ -19,13 +19,14 @@ wake: the moonlet wake's azimuthal wavelength. A particle passing the moonlet at
       The linear kinematics holds for test particles (a run without "contact"): in a collisional
       ring the wake is damped and its phase drifts (docs/propeller.md).
 """
-import argparse, glob, math
+import argparse, math, os, sys
 
-import h5py
 import numpy as np
 
-G, MS, R0 = 6.674e-11, 5.68e26, 1.17e8
-OMEGA0 = math.sqrt(G * MS / R0**3)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import Hill, Run, SATURN_MASS as MS, ORBIT_RADIUS as R0
+
+OMEGA0 = Hill({}).omega0  # the propeller cases use hill's default Saturn and orbit
 
 ap = argparse.ArgumentParser()
 ap.add_argument("mode", choices=["gap", "wake"])
@@ -38,22 +39,17 @@ a = ap.parse_args()
 
 
 def frames(run, t0, t1):
-    for s in sorted(glob.glob(run + "/snap_*.h5md")):
-        f = h5py.File(s)
-        t = float(f["parameters/time_offset_dt"][0])
-        if t0 <= t <= t1:
-            g = f["particles/grains"]
-            x, v = g["position/value"][0], g["velocity/value"][0]
-            keep = g["le_copy/value"][0].ravel() == 0 if "le_copy" in g else np.ones(len(x), bool)
-            yield t, x[keep], v[keep], f
+    """(time, positions, velocities, snapshot) of the main box LE1, for frames in [t0, t1]."""
+    for frame in Run(run).frames(start=t0, end=t1):
+        snap = frame.read(columns=["position", "velocity", "le_copy"], copy=0)
+        yield snap.time, snap.position, snap.velocity, snap
 
 
 def gap_offset(run, scale):
-    times = [float(h5py.File(s)["parameters/time_offset_dt"][0]) for s in glob.glob(run + "/snap_*.h5md")]
-    t1 = max(times)
+    t1 = max(f.time for f in Run(run).frames())
     acc, ref, n = None, 0.0, 0
     for t, x, v, f in frames(run, t1 - a.window, t1):
-        box = f["particles/grains/box/edges/value"][0]
+        box = f.edges
         Lx, Ly = float(box[0][0]), float(box[1][1])
         edges = np.linspace(0, 0.45 * Ly, 46)
         s = x[:, 0] * np.sign(x[:, 1])
@@ -91,7 +87,7 @@ else:
     n, t_first = 0, None
     for t, x, v, f in frames(run, a.t_from, a.t_to):
         if sbins is None:  # downstream distance up to half the box (then the periodic image)
-            sbins = np.arange(0.0, 0.5 * float(f["particles/grains/box/edges/value"][0][0][0]), 150.0)
+            sbins = np.arange(0.0, 0.5 * float(f.edges[0][0]), 150.0)
             sums = {b: (np.zeros(len(sbins) - 1), np.zeros(len(sbins) - 1)) for b in bands}
         n += 1
         t_first = t if t_first is None else min(t_first, t)

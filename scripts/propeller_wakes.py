@@ -16,27 +16,24 @@ x < 0 for y < 0):
     and the Hill velocity r_H Omega0 against the radial dispersion beyond |y| > 4 r_H (propeller
     if larger).
 """
-import argparse, glob, math, os
+import argparse, math, os, sys
 
-import h5py
 import numpy as np
 
-G = 6.674e-11
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
+from cassini_tools import G, Run
 
 
 def frames(run, start):
+    """The frames from `start` orbits on, as dicts of the particle columns and the box."""
     out = []
-    for path in sorted(glob.glob(os.path.join(run, "snap_*.h5md"))):
-        with h5py.File(path, "r") as f:
-            g = f["particles/grains"]
-            omega = float(f["parameters/frame_rotation"][0])
-            t = float(g["position/time"][0])
-            if t * omega / (2 * math.pi) < start - 1e-9:
-                continue
-            edges = g["box/edges/value"][0]
-            out.append(dict(x=g["position/value"][0], v=g["velocity/value"][0], m=g["mass/value"][0], omega=omega,
-                            rate=float(f["parameters/shear_rate"][0]), lo=g["box/origin"][:],
-                            L=np.array([edges[0, 0], edges[1, 1], edges[2, 2]]), t=t))
+    for frame in Run(run).frames():
+        snap = frame.read(columns=["position", "velocity", "mass"])
+        omega = snap.frame_rotation
+        if snap.time * omega / (2 * math.pi) < start - 1e-9:
+            continue
+        out.append(dict(x=snap.position, v=snap.velocity, m=snap.mass, omega=omega, rate=snap.shear_rate,
+                        lo=snap.origin, L=snap.lengths, t=snap.time))
     return out
 
 

@@ -1,0 +1,245 @@
+"""Reading cassini runs from Python: the one reader every script in scripts/ uses.
+
+Needs h5py and numpy (Debian's /usr/bin/python3 has them). Put this folder's parent on the path:
+
+    import sys; sys.path.insert(0, "/path/to/cassini/python")
+    from cassini_tools import Run
+
+    run = Run("runs/x")                 # a directory cassini wrote (--out)
+    run.summary["status"]               # summary.json as a dict
+    run.case["seed"]                    # the resolved case.toml as a dict
+    obs = run.observables()             # {"time": array, "kinetic_energy": array, ...}
+    for frame in run.frames():          # complete snapshots, in step order
+        snap = frame.read()             # snap.position, snap.velocity, snap.id, ... (numpy)
+    hill = run.hill()                   # Omega0, T0, shear rate, Hill radius of a moonlet
+
+Units are SI throughout. Every failure is a RunError naming the file and what was wrong.
+"""
+import csv
+import glob
+import json
+import math
+import os
+import re
+import tomllib
+
+import numpy as np
+
+# The solver's constants (src/core/Config.hpp, src/physics/HillFrame.hpp).
+G = 6.674e-11               # m^3 kg^-1 s^-2
+SATURN_MASS = 5.68e26       # kg: hill.saturn_mass's default
+ORBIT_RADIUS = 1.17e8       # m: hill.orbit_radius's default
+
+
+class RunError(Exception):
+    """A run, file or frame that cannot be read; the message names it."""
+
+
+def text(value):
+    """An HDF5 string attribute as str, whether stored fixed-length (bytes) or variable-length."""
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, np.ndarray) and value.dtype.kind in "SO":
+        return ",".join(text(v) for v in value)
+    return str(value)
+
+
+def _h5py():
+    try:
+        import h5py
+    except ImportError as e:  # the pyenv python first on PATH has none
+        raise RunError("h5py is missing: run with Debian's /usr/bin/python3 (python3-h5py)") from e
+    return h5py
+
+
+class Hill:
+    """The Hill frame of a case: Omega0 = sqrt(G M / r0^3), T0 = 2 pi / Omega0, the Keplerian shear
+    rate 1.5 Omega0 (or the case's domain.shear_rate) and Hill radii r0 (m / 3M)^(1/3)."""
+
+    def __init__(self, case):
+        h = case.get("hill", {})
+        self.saturn_mass = float(h.get("saturn_mass", SATURN_MASS))
+        self.orbit_radius = float(h.get("orbit_radius", ORBIT_RADIUS))
+        self.omega0 = math.sqrt(G * self.saturn_mass / self.orbit_radius ** 3)
+        self.period = 2 * math.pi / self.omega0
+        self.shear_rate = float(case.get("domain", {}).get("shear_rate", 1.5 * self.omega0))
+
+    def hill_radius(self, mass):
+        return self.orbit_radius * (mass / (3 * self.saturn_mass)) ** (1 / 3)
+
+    def orbits(self, time):
+        return time / self.period
+
+
+class Snapshot:
+    """One frame: particle columns (numpy arrays, rows in id order) and the frame's parameters."""
+
+    def __init__(self, path, columns=None, copy=None):
+        h5py = _h5py()
+        self.path = path
+        try:
+            with h5py.File(path, "r") as f:
+                if text(f["parameters"].attrs.get("complete", "")) != "yes":
+                    raise RunError(f"{path}: an incomplete snapshot (no parameters@complete)")
+                grains = f["particles/grains"]
+                names = columns or [k for k in grains if k not in ("box", "lees_edwards")]
+                self.columns = {k: grains[k + "/value"][0] for k in names if k in grains}
+                self.step = int(grains["id/step"][0])
+                now = f["parameters/time_offset_dt"][:]
+                self.time, self.offset, self.dt = float(now[0]), float(now[1]), float(now[2])
+                self.shear_rate = float(f["parameters/shear_rate"][0])
+                self.frame_rotation = float(f["parameters/frame_rotation"][0]) if "parameters/frame_rotation" in f else 0.0
+                self.planar = bool(f["parameters/planar"][0]) if "parameters/planar" in f else False
+                self.edges = grains["box/edges/value"][0]
+                self.origin = grains["box/origin"][:]
+                self.boundary = text(grains["box"].attrs.get("boundary", "")).split(",")
+                self.case = tomllib.loads(text(f["parameters"].attrs["case"]))
+                self.results = {k: (text(v) if isinstance(v, (bytes, str)) else np.asarray(v).ravel()[0])
+                                for k, v in f["results"].attrs.items()} if "results" in f else {}
+                self.run_id = text(f["parameters"].attrs.get("run_id", ""))
+                le = grains["le_copy/value"][0].ravel() if "le_copy" in grains else None
+        except OSError as e:
+            raise RunError(f"{path}: not a readable HDF5 file (truncated, or not a cassini snapshot): {e}") from e
+        except KeyError as e:
+            raise RunError(f"{path}: not a cassini snapshot (missing {e}); is it an observables or fields file?") from e
+        if copy is not None and le is not None:  # modified Lees-Edwards runs: one copy of the box
+            keep = le == copy
+            self.columns = {k: v[keep] for k, v in self.columns.items()}
+
+    def __getattr__(self, name):  # snap.position, snap.velocity, snap.id, snap.radius, ...
+        columns = self.__dict__.get("columns", {})
+        if name in columns:
+            return columns[name]
+        raise AttributeError(f"{self.__dict__.get('path', 'snapshot')} has no particle column '{name}'")
+
+    @property
+    def lengths(self):
+        return np.array([self.edges[0][0], self.edges[1][1], self.edges[2][2]])
+
+    def __len__(self):
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+
+class Frame:
+    """A snapshot file of a run: its step from the name; read() loads it."""
+
+    def __init__(self, path):
+        self.path = path
+        self.step = int(re.search(r"snap_(\d+)\.h5md$", path).group(1))
+        self._time = None
+
+    @property
+    def time(self):
+        if self._time is None:
+            h5py = _h5py()
+            try:
+                with h5py.File(self.path, "r") as f:
+                    self._time = float(f["parameters/time_offset_dt"][0])
+            except (OSError, KeyError) as e:
+                raise RunError(f"{self.path}: not a readable cassini snapshot: {e}") from e
+        return self._time
+
+    def read(self, columns=None, copy=None):
+        return Snapshot(self.path, columns, copy)
+
+
+class Run:
+    """A run directory written by cassini (--out)."""
+
+    def __init__(self, path):
+        if not os.path.isdir(path):
+            what = "is a file" if os.path.exists(path) else "no such directory"
+            raise RunError(f"{path}: {what}, expected a run directory written by cassini (--out)")
+        self.path = path
+
+    def _file(self, name):
+        p = os.path.join(self.path, name)
+        if not os.path.exists(p):
+            raise RunError(f"{p}: no such file (is {self.path} a finished cassini run?)")
+        return p
+
+    @property
+    def summary(self):
+        p = self._file("summary.json")
+        try:
+            with open(p) as f:
+                return json.load(f)
+        except json.JSONDecodeError as e:
+            raise RunError(f"{p}: not valid JSON: {e}") from e
+
+    @property
+    def case(self):
+        p = self._file("case.toml")
+        try:
+            with open(p, "rb") as f:
+                return tomllib.load(f)
+        except tomllib.TOMLDecodeError as e:
+            raise RunError(f"{p}: not valid TOML: {e}") from e
+
+    def hill(self):
+        return Hill(self.case)
+
+    def observables(self):
+        """observables.csv as {column: numpy array}."""
+        p = self._file("observables.csv")
+        with open(p) as f:
+            rows = list(csv.DictReader(f))
+        if not rows:
+            with open(p) as f:
+                names = f.readline().strip().split(",")
+            return {k: np.zeros(0) for k in names}
+        return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+    def observable_rows(self):
+        """observables.csv as a list of {column: float} rows."""
+        with open(self._file("observables.csv")) as f:
+            return [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+
+    def frames(self, start=None, end=None):
+        """The complete snapshots (no .partial), in step order; with start/end, those whose time
+        lies in [start, end] (seconds)."""
+        frames = [Frame(p) for p in sorted(glob.glob(os.path.join(self.path, "snap_*.h5md")))]
+        if start is not None or end is not None:
+            lo, hi = -math.inf if start is None else start, math.inf if end is None else end
+            frames = [f for f in frames if lo - 1e-9 * abs(lo) <= f.time <= hi + 1e-9 * abs(hi)]
+        return frames
+
+    def dump(self, step=None, tag="step"):
+        """A text dump (output.dump_every), every rank's part, as (time, array with columns id species
+        radius x y z vx vy vz), rows in id order; the last one unless step is given."""
+        files = glob.glob(os.path.join(self.path, "dump", f"{tag}_*.rank*.txt"))
+        steps = sorted({int(re.search(rf"{tag}_(\d+)\.rank", f).group(1)) for f in files})
+        if not steps:
+            raise RunError(f"{self.path}/dump: no {tag}_*.txt dumps (run with output.dump_every)")
+        step = steps[-1] if step is None else step
+        parts = sorted(f for f in files if f"{tag}_{step:09d}.rank" in f)
+        if not parts:
+            raise RunError(f"{self.path}/dump: no dump of step {step}")
+        with open(parts[0]) as f:
+            time = float(f.readline().split()[4])  # "# step N time T"
+        data = np.vstack([np.loadtxt(p, ndmin=2).reshape(-1, 9) for p in parts])
+        return time, data[np.argsort(data[:, 0], kind="stable")]
+
+    def ensemble(self):
+        """ensemble.csv (--ensemble) as a list of rows, numbers as float, empty fields as None."""
+        return read_ensemble(self._file("ensemble.csv"))
+
+
+def read_ensemble(path, raw=False):
+    """An ensemble.csv (or a concatenation of them) as rows; numbers as float, empty as None, or
+    with raw=True every field as the text the file holds (lists stay space-separated text)."""
+    if not os.path.exists(path):
+        raise RunError(f"{path}: no such file (written by cassini --ensemble)")
+    if raw:
+        with open(path) as f:
+            return list(csv.DictReader(f))
+
+    def value(v):
+        if v == "":
+            return None
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    with open(path) as f:
+        return [{k: value(v) for k, v in r.items()} for r in csv.DictReader(f)]
