@@ -298,6 +298,9 @@ check("... and another dt is refused naming time.dt", rc == 2 and "time.dt" in o
 rc, out, _ = run(["clog", "--ensemble", "2", "--out", "ens_snap", "--set", "output.snapshot_every=0.1",
                   "--set", "time.end=0.001"])
 check("--ensemble with snapshots set says they are not written", rc == 0 and "output.snapshot_every" in out, out)
+rc, out, _ = run(["clog", "--out", "clog_eta", "--set", "time.end=0.05", "--set", "output.progress_every=0.01"])
+check("a run a clog may end early gives its ETA as an upper bound", rc == 0 and "ETA <= " in out and "(or at a clog)" in out,
+      out)
 
 # ---- 5. cassini-cg
 rc, out, _ = run(["r1/snap_000000100.h5md", "r1/snap_999.h5md"], exe=cg)
