@@ -95,12 +95,9 @@ void LinearSpringDashpot::set_tangential(PairLaw& L) const {
   }
   L.eta_t = 1.75 * L.gammat_ratio * L.gamma_per_mass;
   L.w2_t = 3.5 * L.kt_ratio * L.k_per_mass - L.eta_t * L.eta_t;
-  const double rho = std::exp(-L.eta_t * dt), one_minus_rho = -std::expm1(-L.eta_t * dt);
-  // 1 - c without cancellation: 2 sin^2(w dt / 2), or -2 sinh^2 when overdamped.
-  const double half = 0.5 * std::sqrt(std::abs(L.w2_t)) * dt;
-  const double one_minus_c = L.w2_t >= 0 ? 2 * std::sin(half) * std::sin(half) : -2 * std::sinh(half) * std::sinh(half);
-  L.kt_eff = (one_minus_rho * one_minus_rho + 2 * rho * one_minus_c) / (dt * dt) / 3.5;
-  L.gt_eff = -std::expm1(-2 * L.eta_t * dt) / dt / 3.5;
+  const DiscreteOscillator d = discrete_oscillator(L.w2_t, L.eta_t, dt);  // per tangential mass m / 3.5
+  L.kt_eff = d.k / 3.5;
+  L.gt_eff = d.gamma / 3.5;
 }
 
 // The law of one contact whose impact had normal speed u, for a pair whose restitution

@@ -111,6 +111,28 @@ struct Rolling {
   Vec3 torque = Vec3::Zero();
 };
 
+// A damped oscillator x'' = -w0^2 x - 2 eta x' (w2 = w0^2 - eta^2; < 0 overdamped) sampled
+// exactly by Verlet with the half-step dashpot: the spring and dashpot per unit mass (or
+// inertia) that make x_{n+1} = 2 rho c x_n - rho^2 x_{n-1}, rho = exp(-eta dt), c = cos(sqrt(w2)
+// dt), the step's recurrence (see the top of this file).
+struct DiscreteOscillator {
+  double k, gamma;  // per unit mass
+};
+inline DiscreteOscillator discrete_oscillator(double w2, double eta, double dt) {
+  const double rho = std::exp(-eta * dt), one_minus_rho = -std::expm1(-eta * dt);
+  // 1 - c without cancellation: 2 sin^2(w dt / 2), or -2 sinh^2 when overdamped.
+  const double half = 0.5 * std::sqrt(std::abs(w2)) * dt;
+  const double one_minus_c = w2 >= 0 ? 2 * std::sin(half) * std::sin(half) : -2 * std::sinh(half) * std::sinh(half);
+  return {(one_minus_rho * one_minus_rho + 2 * rho * one_minus_c) / (dt * dt), -std::expm1(-2 * eta * dt) / dt};
+}
+// The same oscillator's displacement a time s after it left x = 0 at unit speed.
+inline double oscillator_displacement(double w2, double eta, double s) {
+  const double decay = std::exp(-eta * s);
+  if (w2 > 0) { const double w = std::sqrt(w2); return decay * std::sin(w * s) / w; }
+  if (w2 < 0) { const double w = std::sqrt(-w2); return decay * std::sinh(w * s) / w; }
+  return decay * s;
+}
+
 struct PairLaw {
   double k_per_mass;      // omega^2 + eta^2
   double gamma_per_mass;  // 2 eta
@@ -128,12 +150,7 @@ struct PairLaw {
   double kt_eff, gt_eff, eta_t, w2_t;
   // The tangential displacement a sticking contact has made s after it began, per unit
   // tangential speed at its start: exp(-eta_t s) sin(w_t s) / w_t (sinh when overdamped).
-  double stuck_displacement(double s) const {
-    const double decay = std::exp(-eta_t * s);
-    if (w2_t > 0) { const double w = std::sqrt(w2_t); return decay * std::sin(w * s) / w; }
-    if (w2_t < 0) { const double w = std::sqrt(-w2_t); return decay * std::sinh(w * s) / w; }
-    return decay * s;
-  }
+  double stuck_displacement(double s) const { return oscillator_displacement(w2_t, eta_t, s); }
 };
 
 // The normal part of one evaluation: force along n (repulsive > 0), the overlap the pair is to
@@ -411,7 +428,8 @@ class LinearSpringDashpot {
     *xi = s;
     if (parts.rolling && roll) {
       const double kn = parts.hertz ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;  // d f_n / d delta
-      roll->torque = rolling(L, kn, std::max(fn, 0.0), reff, n, advance ? ns.contact_time : 0.0, *roll);
+      roll->torque = rolling(L, kn, std::max(fn, 0.0), reff, n, advance ? ns.contact_time : 0.0, *roll,
+                             parts.exact && !parts.hertz);
     }
     return f + ft;
   }
@@ -463,28 +481,53 @@ class LinearSpringDashpot {
   // w = omega_i - omega_j, in its rolling part (across n) and its twisting part (along n). Each
   // part grows by -k w dt with k = 2.25 k_n mu^2 R*^2, k_n the normal stiffness, and is capped at
   // mu R* f_n (mu_r rolling, mu_o twisting): at the cap the contact turns plastically and the
-  // dashpot is off; below it a dashpot -2 eta_r sqrt(I k) w acts, I the reduced moment of inertia
-  // about the contact point. A sphere rolling on a plane then decelerates at 5/7 mu_r g
-  // (test: SphereRollsToRestUnderRollingResistance). Torque on i; j gets its negative.
+  // dashpot is off; below it a dashpot -2 eta_r sqrt(I k) w acts. I is the reduced moment of
+  // inertia the part turns: about the contact point for rolling (r.inertia, I + m a^2 = 1.4 m a^2
+  // per solid sphere), about the line of centres for twisting (2/5 m a^2: 2/7 of it). A sphere
+  // rolling on a plane then decelerates at 5/7 mu_r g (test: SphereRollsToRestUnderRolling-
+  // Resistance). Torque on i; j gets its negative.
+  // exact (the exact scheme, linear law): each part's elastic regime is the damped oscillator
+  // I theta'' = -k theta - 2 eta_r sqrt(I k) theta', stepped with its discrete constants (exact
+  // samples, as the normal and tangential contacts), and its onset step puts the spring at the
+  // oscillator's exact twist since the contact began (TwistingSpringIsSampledExactly).
   Vec3 rolling(const PairLaw& L, double kn, double fn, double reff, const Vec3& n, double contact_time,
-               Rolling& r) const {
+               Rolling& r, bool exact = false) const {
     const Vec3 w_twist = r.spin.dot(n) * n, w_roll = r.spin - w_twist;
     Vec3 m_twist = r.spring.dot(n) * n, m_roll = r.spring - m_twist;
-    auto part = [&](Vec3& spring, const Vec3& w, double mu) -> Vec3 {
+    auto part = [&](Vec3& spring, const Vec3& w, double mu, double inertia) -> Vec3 {
       if (!(mu > 0)) {
         spring.setZero();
         return Vec3::Zero();
       }
       const double k = 2.25 * kn * mu * mu * reff * reff, cap = mu * reff * fn;
-      spring -= (k * contact_time) * w;
+      double k_step = k, c_step = 2 * L.eta_r * std::sqrt(inertia * k);
+      Vec3 torque;
+      if (exact) {
+        const double decay = L.eta_r * std::sqrt(k / inertia), w2 = k / inertia - decay * decay;
+        const DiscreteOscillator d = discrete_oscillator(w2, decay, dt_);
+        k_step = inertia * d.k;
+        c_step = inertia * d.gamma;
+        if (contact_time > 0 && contact_time < dt_) {  // onset: the exact twist since the contact began
+          const double x0 = oscillator_displacement(w2, decay, contact_time),
+                       x1 = oscillator_displacement(w2, decay, contact_time + dt_);
+          spring = (-k_step * x0) * w;
+          torque = (inertia * ((x1 - x0) / dt_ - 1.0) / dt_) * w;
+        } else {
+          spring -= (k_step * contact_time) * w;
+          torque = spring - c_step * w;
+        }
+      } else {
+        spring -= (k_step * contact_time) * w;
+        torque = spring - c_step * w;
+      }
       const double s2 = spring.squaredNorm();
       if (s2 > cap * cap) {  // plastic: the spring stays at the limit torque, no dashpot
         spring *= cap / std::sqrt(s2);
         return spring;
       }
-      return spring - (2 * L.eta_r * std::sqrt(r.inertia * k)) * w;
+      return torque;
     };
-    const Vec3 torque = part(m_roll, w_roll, L.mu_r) + part(m_twist, w_twist, L.mu_o);
+    const Vec3 torque = part(m_roll, w_roll, L.mu_r, r.inertia) + part(m_twist, w_twist, L.mu_o, r.inertia * (2.0 / 7.0));
     r.spring = m_roll + m_twist;
     return torque;
   }
