@@ -1156,6 +1156,66 @@ end = 1.0
   }
 }
 
+TEST(ContactLaw, RollingSpringRocksASphereAtItsNormalModeFrequency) {
+  // A sphere resting on the floor (undamped: e = 1, eta_r = 0, gammat_ratio = 0), rocking in the
+  // elastic regime of its rolling spring k_r = 2.25 k_n mu_r^2 a^2 and held by its tangential
+  // spring k_t = (2/7) k_n at the contact point. With x the centre's displacement and phi the
+  // rotation about y, the contact point moves by u = x - a phi: the energy is k_t u^2 / 2 +
+  // k_r phi^2 / 2 and the inertia diag(m, 2/5 m a^2). Started on the slower normal mode
+  // (computed here from that 2x2 problem; nearly rolling, omega^2 ~ k_r / (7/5 m a^2)), the rotation
+  // is A sin(omega_1 t): within 1e-3 of it over two periods at N_c = 50 (the scheme's step error
+  // is O((omega dt)^2), 3e-4 for the normal contact).
+  const double a = 1e-3, tc = 1e-4, g = 9.81, mu_r = 0.1, n_c = 50;
+  const double m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, dt = tc / n_c;
+  const double w = std::numbers::pi / tc, kn = m * w * w;
+  const double k_eff = m * (2 - 2 * std::cos(w * dt)) / (dt * dt);
+  const double kt = 2.0 / 7.0 * kn, kr = 2.25 * kn * mu_r * mu_r * a * a, I = 0.4 * m * a * a;
+  // det(K - w^2 M) = 0, K = [[kt, -a kt], [-a kt, a^2 kt + kr]], M = diag(m, I)
+  const double A2 = m * I, B = -(kt * I + m * (a * a * kt + kr)), C = kt * kr;
+  const double w1sq = (-B - std::sqrt(B * B - 4 * A2 * C)) / (2 * A2), w1 = std::sqrt(w1sq);
+  const double ratio = kt * a / (kt - m * w1sq);  // x / phi on that mode: (kt - m w^2) x = a kt phi
+  char dts[40];
+  std::snprintf(dts, sizeof dts, "time.dt=%.17g", dt);
+  auto sim = make_sim(R"(
+modules = ["contact", "walls", "gravity"]
+[domain]
+lo = [-0.05, -0.05, 0.0]
+hi = [0.05, 0.05, 0.01]
+boundary = ["periodic", "periodic", "wall"]
+[gravity]
+g = [0.0, 0.0, -9.81]
+[[species]]
+density = 2500.0
+radius = 0.001
+t_c = 1.0e-4
+e = 1.0
+mu_s = 1.0
+mu_d = 1.0
+mu_r = 0.1
+eta_r = 0.0
+gammat_ratio = 0.0
+[particles]
+init = "none"
+[time]
+end = 1.0
+)", {dts});
+  const double spin = 1e-3;  // rad/s on the mode: torques far below the limit mu_r a m g
+  sim->particles.add(0, 0, a, m, Vec3(0, 0, a - m * g / k_eff), Vec3(ratio * spin, 0, 0));
+  sim->particles.omega[0] = Vec3(0, spin, 0);
+  sim->setup();
+  double phi = 0, worst = 0;
+  const double amplitude = spin / w1;
+  for (int s = 0; s * dt < 2 * 2 * std::numbers::pi / w1; ++s) {
+    const double w_before = sim->particles.omega[0][1];
+    sim->step();
+    phi += 0.5 * (w_before + sim->particles.omega[0][1]) * dt;  // trapezoid on the full-step spins
+    worst = std::max(worst, std::abs(phi - amplitude * std::sin(w1 * sim->time)));
+  }
+  std::printf("rocking: omega_1 = %.1f 1/s (k_r / (7/5 m a^2) gives %.1f); largest |phi - A sin(w1 t)| = %.2e of A\n",
+              w1, std::sqrt(kr / (1.4 * m * a * a)), worst / amplitude);
+  EXPECT_LT(worst, 1e-3 * amplitude);
+}
+
 TEST(ContactLaw, MindlinSpringDoesNoWorkFromNothingInALoadingCycle) {
   // Mindlin's spring in displacement form (f_t = -k_t(delta) xi, k_t ~ sqrt(delta)) makes work
   // from nothing: stretched by x at a light load, pressed harder, and brought back to where it

@@ -66,7 +66,9 @@ void Simulation::setup() {
   rebuild();
   for (auto& m : modules) m->setup(*this);  // modules may need the placed particles (and set up data F needs)
   if (!restored) {
+    initial_forces = true;
     compute_forces();
+    initial_forces = false;
     check_initial_overlaps();
     check_initial_speeds();
   }

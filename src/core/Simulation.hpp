@@ -37,6 +37,9 @@ class Simulation {
   // a restart (which starts with a rebuild) continues bitwise like the uninterrupted run.
   void rebuild();
   bool restored = false;  // state (including F) came from a snapshot
+  // True while setup() evaluates F(0): contact histories (springs) are read, not advanced, so
+  // the first step does not add a step's stretch twice.
+  bool initial_forces = false;
   bool restart_point = false;  // true during the rebuild a snapshot makes (a restart from it starts alike)
   void step();
   // Steps to cfg.t_end; with `out`, prints progress and writes observables and dumps.

@@ -38,6 +38,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const NeighborList& nl = sim.neighbors;
   constexpr bool fric = Parts::friction;
   constexpr bool rolls = Parts::rolling;  // rolling and twisting resistance (friction is on)
+  const bool advance = !sim.initial_forces;  // F(0) reads the springs; the steps move them
   if (fric && springs_.entries() != nl.size()) springs_.reset(nl.size(), rolls);
   long contacts = 0;
   double worst = 0;
@@ -269,7 +270,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
     const std::uint32_t held = fric ? springs_.hold(HELD[k]) : 0;
     Rolling rl;
     if (rolls) rl = {W[i] - W[j], 1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * A[j] * A[j])), springs_.roll(held)};
-    const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &springs_.xi(held) : nullptr, ft, true, &shift, reff,
+    const Vec3 f = law_.force(parts, L, m, delta, n, vrel, fric ? &springs_.xi(held) : nullptr, ft, advance, &shift, reff,
                               rolls ? &rl : nullptr);
     if (rolls) springs_.roll(held) = rl.spring;
     if (sheared && mk == kNoMirror) boundary_work += across(j) * f[0] * half_jump_dt;
@@ -303,7 +304,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         Rolling rj;
         if (rolls) rj = {-rl.spin, rl.inertia, springs_.roll(held_j)};
         double shift_j = 0;
-        const Vec3 fj = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &springs_.xi(held_j) : nullptr, ftj, true,
+        const Vec3 fj = law_.force(parts, Lj, m, delta, nj, -vrel, fric ? &springs_.xi(held_j) : nullptr, ftj, advance,
                                    &shift_j, reff, rolls ? &rj : nullptr);
         if (rolls) springs_.roll(held_j) = rj.spring;
         slot = own_slot();

@@ -86,7 +86,7 @@ void Moonlet::force(Simulation& sim) {
     const double d = std::sqrt(d2), delta = reach - d;
     const Vec3 normal = Vec3(x, y, z) / d;
     Vec3 move = Vec3::Zero();
-    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_, limit_);
+    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_, limit_, !sim.initial_forces);
     if (!move.isZero(0)) shifts_.add(i, move);
     if (!touching) continue;
     deepest.see(delta, A[i], p.id[i]);

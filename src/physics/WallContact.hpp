@@ -33,8 +33,10 @@ inline WallSprings wall_springs(ParticleStore& p, bool friction, std::size_t i, 
 // and its springs and impact speed are forgotten. Returns true when it touches now.
 // wall_radius: the surface's radius of curvature (the moonlet); 0 for a flat wall. limit: the
 // scene's DampingLimit (off in most scenes): the contact's load and its dashpots' scale.
+// advance: false for the forces of t = 0 (Simulation::initial_forces), which move no spring.
 inline bool wall_contact(const LinearSpringDashpot& law, ParticleStore& p, std::size_t i, const Vec3& n, double delta,
-                         const WallSprings& s, Vec3& move, double wall_radius, const DampingLimit& limit) {
+                         const WallSprings& s, Vec3& move, double wall_radius, const DampingLimit& limit,
+                         bool advance = true) {
   if (delta <= 0) {  // apart now: a new contact starts unloaded
     if (s.xi) s.xi->setZero();
     if (s.roll) s.roll->setZero();
@@ -49,7 +51,7 @@ inline bool wall_contact(const LinearSpringDashpot& law, ParticleStore& p, std::
   const bool touching = delta > 0;
   LinearSpringDashpot::Stability load;
   const bool limit_it = limit.on() && touching;
-  p.f[i] += law.wall_force(p, i, n, delta, touching ? s.xi : nullptr, torque, true, &shift, s.impact,
+  p.f[i] += law.wall_force(p, i, n, delta, touching ? s.xi : nullptr, torque, advance, &shift, s.impact,
                            touching ? s.roll : nullptr, wall_radius, limit_it ? limit.scale(p, i) : 1.0,
                            limit_it ? &load : nullptr);
   if (limit_it) limit.add(p, i, load.K, load.G, DampingLimit::weight(p.mass[i], 0));
