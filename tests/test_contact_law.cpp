@@ -1033,22 +1033,14 @@ TEST(ContactLaw, ObliqueImpactsFollowTheContinuousContactAtAnyOnsetPhase) {
   }
 }
 
-TEST(ContactLaw, StickingTangentialContactIsSampledExactly) {
-  // A sphere resting on the floor under gravity (at the exact scheme's static overlap m g /
-  // k_eff), pushed along it slowly enough to stick: its contact point is a damped oscillator of
-  // mass m / 3.5 (translation and spin), with the default ratios the normal contact's own
-  // (rate eta = -ln e / t_c, frequency pi / t_c). Exact samples xi_n of it obey
-  // xi_{n+1} = 2 rho cos(w dt) xi_n - rho^2 xi_{n-1}, rho = exp(-eta dt), at any N_c. The
-  // spring and dashpot of the law integrated by Verlet miss it at first order in dt.
-  const double a = 1e-3, tc = 1e-4, e = 0.3, g = 9.81;
-  const double m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
-  const double eta = -std::log(e) / tc, w = std::numbers::pi / tc;
-  for (double n_c : {5.0, 12.0}) {
-    const double dt = tc / n_c, rho = std::exp(-eta * dt);
-    const double k_eff = m * (1 + rho * rho - 2 * rho * std::cos(w * dt)) / (dt * dt);
-    char dts[40];
-    std::snprintf(dts, sizeof dts, "time.dt=%.17g", dt);
-    auto sim = make_sim(R"(
+namespace {
+// A 1 mm glass sphere's floor (e = 0.3, mu = 1) at a given step, for the oscillator tests below;
+// `more` overrides keys.
+std::unique_ptr<Simulation> sphere_on_floor(double dt, std::vector<std::string> more) {
+  char dts[40];
+  std::snprintf(dts, sizeof dts, "time.dt=%.17g", dt);
+  more.insert(more.begin(), dts);
+  return make_sim(R"(
 modules = ["contact", "walls", "gravity"]
 [domain]
 lo = [-0.05, -0.05, 0.0]
@@ -1067,7 +1059,24 @@ mu_d = 1.0
 init = "none"
 [time]
 end = 1.0
-)", {dts});
+)", more);
+}
+}  // namespace
+
+TEST(ContactLaw, StickingTangentialContactIsSampledExactly) {
+  // A sphere resting on the floor under gravity (at the exact scheme's static overlap m g /
+  // k_eff), pushed along it slowly enough to stick: its contact point is a damped oscillator of
+  // mass m / 3.5 (translation and spin), with the default ratios the normal contact's own
+  // (rate eta = -ln e / t_c, frequency pi / t_c). Exact samples xi_n of it obey
+  // xi_{n+1} = 2 rho cos(w dt) xi_n - rho^2 xi_{n-1}, rho = exp(-eta dt), at any N_c. The
+  // spring and dashpot of the law integrated by Verlet miss it at first order in dt.
+  const double a = 1e-3, tc = 1e-4, e = 0.3, g = 9.81;
+  const double m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+  const double eta = -std::log(e) / tc, w = std::numbers::pi / tc;
+  for (double n_c : {5.0, 12.0}) {
+    const double dt = tc / n_c, rho = std::exp(-eta * dt);
+    const double k_eff = m * (1 + rho * rho - 2 * rho * std::cos(w * dt)) / (dt * dt);
+    auto sim = sphere_on_floor(dt, {});
     sim->particles.add(0, 0, a, m, Vec3(0, 0, a - m * g / k_eff), Vec3(1e-4, 0, 0));
     sim->setup();
     std::vector<double> xi;
@@ -1108,30 +1117,7 @@ TEST(ContactLaw, TwistingSpringIsSampledExactly) {
     const double dt = tc / n_c, rho_n = std::exp(-eta * dt);
     const double k_eff = m * (1 + rho_n * rho_n - 2 * rho_n * std::cos(w * dt)) / (dt * dt);
     const double rho = std::exp(-decay * dt), c = std::cos(wd * dt);
-    char dts[40];
-    std::snprintf(dts, sizeof dts, "time.dt=%.17g", dt);
-    auto sim = make_sim(R"(
-modules = ["contact", "walls", "gravity"]
-[domain]
-lo = [-0.05, -0.05, 0.0]
-hi = [0.05, 0.05, 0.01]
-boundary = ["periodic", "periodic", "wall"]
-[gravity]
-g = [0.0, 0.0, -9.81]
-[[species]]
-density = 2500.0
-radius = 0.001
-t_c = 1.0e-4
-e = 0.3
-mu_s = 1.0
-mu_d = 1.0
-mu_o = 0.5
-eta_r = 0.3
-[particles]
-init = "none"
-[time]
-end = 1.0
-)", {dts});
+    auto sim = sphere_on_floor(dt, {"species.0.mu_o=0.5", "species.0.eta_r=0.3"});
     sim->particles.add(0, 0, a, m, Vec3(0, 0, a - m * g / k_eff), Vec3::Zero());
     const double spin = 0.05;  // rad/s: the twist's torque peaks at ~I w0 spin, 1/6 of the limit
     sim->particles.omega[0] = Vec3(0, 0, spin);
@@ -1174,31 +1160,8 @@ TEST(ContactLaw, RollingSpringRocksASphereAtItsNormalModeFrequency) {
   const double A2 = m * I, B = -(kt * I + m * (a * a * kt + kr)), C = kt * kr;
   const double w1sq = (-B - std::sqrt(B * B - 4 * A2 * C)) / (2 * A2), w1 = std::sqrt(w1sq);
   const double ratio = kt * a / (kt - m * w1sq);  // x / phi on that mode: (kt - m w^2) x = a kt phi
-  char dts[40];
-  std::snprintf(dts, sizeof dts, "time.dt=%.17g", dt);
-  auto sim = make_sim(R"(
-modules = ["contact", "walls", "gravity"]
-[domain]
-lo = [-0.05, -0.05, 0.0]
-hi = [0.05, 0.05, 0.01]
-boundary = ["periodic", "periodic", "wall"]
-[gravity]
-g = [0.0, 0.0, -9.81]
-[[species]]
-density = 2500.0
-radius = 0.001
-t_c = 1.0e-4
-e = 1.0
-mu_s = 1.0
-mu_d = 1.0
-mu_r = 0.1
-eta_r = 0.0
-gammat_ratio = 0.0
-[particles]
-init = "none"
-[time]
-end = 1.0
-)", {dts});
+  auto sim = sphere_on_floor(dt, {"species.0.e=1.0", "species.0.mu_r=0.1", "species.0.eta_r=0.0",
+                                       "species.0.gammat_ratio=0.0"});
   const double spin = 1e-3;  // rad/s on the mode: torques far below the limit mu_r a m g
   sim->particles.add(0, 0, a, m, Vec3(0, 0, a - m * g / k_eff), Vec3(ratio * spin, 0, 0));
   sim->particles.omega[0] = Vec3(0, spin, 0);
