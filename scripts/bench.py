@@ -4,6 +4,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.
 from cassini_tools import Run
 
 REPEATS = int(sys.argv[1]) if __name__ == "__main__" and len(sys.argv) > 1 else 3
+BASE = os.environ.get("CASSINI_BASE")  # an older binary to time beside build/cassini
 STEPS = 1000
 LAMMPS_IN = os.path.abspath(os.path.join(os.path.dirname(__file__), "../../shared/peers/lammps/in.gas"))
 if not os.path.exists(LAMMPS_IN):
@@ -74,13 +75,13 @@ def timed(ranks, command):
     return MPI + ["-n", str(ranks)] + wrap + command, peak_bytes
 
 
-def run_cassini(n, friction, ranks, tmp):
+def run_cassini(n, friction, ranks, tmp, binary="build/cassini"):
     path = os.path.join(tmp, f"gas_{n}_{friction}")
     os.makedirs(path, exist_ok=True)
     with open(os.path.join(path, "case.toml"), "w") as f:
         f.write(case_text(n, friction))
     out = os.path.join(tmp, f"out_{n}_{friction}_{ranks}")
-    cmd, peak_bytes = timed(ranks, [os.path.abspath("build/cassini"), path, "--out", out, "--force"])
+    cmd, peak_bytes = timed(ranks, [os.path.abspath(binary), path, "--out", out, "--force"])
     r = subprocess.run(cmd, capture_output=True, text=True, env=ENV)
     if r.returncode != 0:
         sys.exit("cassini failed:\n" + r.stdout + r.stderr)
@@ -119,8 +120,10 @@ def main():
         for n in (50000, 200000):
             for friction in (0, 1):
                 for ranks in (1, 2):
-                    c, l = [], []
+                    c, l, b = [], [], []
                     for _ in range(REPEATS):  # back to back, so both see the same machine load
+                        if BASE:
+                            b.append(run_cassini(n, friction, ranks, tmp, BASE)[0])
                         c.append(run_cassini(n, friction, ranks, tmp))
                         l.append(run_lammps(n, friction, ranks))
                     cs, cm = statistics.median(x[0] for x in c), statistics.median(x[1] for x in c)
@@ -128,7 +131,9 @@ def main():
                     cnet = (cm - base[("c", ranks, friction)]) / (n - 1000)
                     lnet = (lm - base[("l", ranks, friction)]) / (n - 1000)
                     print(f"{n:>7} {0.5 * friction:>4} {ranks:>5} | {cs:>22.3e} {cm / n:>9.0f} {cnet:>5.0f} | "
-                          f"{ls:>21.3e} {lm / n:>9.0f} {lnet:>5.0f} | {cs / ls:.2f}", flush=True)
+                          f"{ls:>21.3e} {lm / n:>9.0f} {lnet:>5.0f} | {cs / ls:.2f}"
+                          + (f" | base {statistics.median(b):.3e}, ratio {statistics.median(b) / ls:.2f}, new/base "
+                             f"{cs / statistics.median(b):.3f}" if b else ""), flush=True)
                     if ranks == 1:
                         ratios1.append(cs / ls)
                         single = (n, friction, cs, ls)

@@ -1,5 +1,6 @@
 """Drives scripts/bench-ring: CPU per orbit of the ring patch in cassini (plain and multi-rate
-schemes, one rank) and in REBOUND (../shared/peers/rebound/run.sh), one after the other."""
+schemes, one rank) and in REBOUND (../shared/peers/rebound/run.sh), one after the other.
+CASSINI_BASE=/path/to/older/cassini also times that binary in the same repeats (a change's cost)."""
 import os, re, resource, statistics, subprocess, sys, tempfile
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
 from cassini_tools import Hill, Run
@@ -16,10 +17,13 @@ def child_cpu():
     return r.ru_utime + r.ru_stime
 
 
-def cassini(case, orbits, overrides):
+BASE = os.environ.get("CASSINI_BASE")
+
+
+def cassini(case, orbits, overrides, binary=os.path.join(ROOT, "build/cassini")):
     """CPU seconds per orbit (one rank) and the run's summary."""
     with tempfile.TemporaryDirectory() as out:
-        cmd = [os.path.join(ROOT, "build/cassini"), case, "--out", out + "/run", "--set", f"time.end={orbits * T0}",
+        cmd = [binary, case, "--out", out + "/run", "--set", f"time.end={orbits * T0}",
                "--set", "output.dump_every=0"]
         for o in overrides:
             cmd += ["--set", o]
@@ -47,8 +51,11 @@ def main():
     taus = [float(t) for t in args[2].split(",")] if len(args) > 2 else []
     rows = []
     # 1. cases/propeller as shipped (moonlet, tau 0.0105) and REBOUND's patch of the same ring.
-    plain, multi, peer = [], [], []
+    plain, multi, peer, base_plain, base_multi = [], [], [], [], []
     for r in range(repeats):
+        if BASE:
+            base_plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"], BASE)[0])
+            base_multi.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'], BASE)[0])
         plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"])[0])
         cpu, s = cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'])
         multi.append(cpu)
@@ -74,6 +81,10 @@ def main():
         print(f"CPU-s per orbit, one rank, medians of {repeats} ({orbits} orbit runs):")
         print(f"  cassini plain (velocity Verlet, N_c = 10, skin 0.8 m): {statistics.median(plain):.1f}")
         print(f"  cassini multi-rate (as shipped):           {statistics.median(multi):.1f}")
+        if BASE:
+            print(f"  base binary ({BASE}): plain {statistics.median(base_plain):.1f}, multi-rate "
+                  f"{statistics.median(base_multi):.1f}; new/base {statistics.median(plain) / statistics.median(base_plain):.3f}, "
+                  f"{statistics.median(multi) / statistics.median(base_multi):.3f}")
     if peer:
         print(f"  REBOUND (SEI, dt = T0/1000, hard spheres): {statistics.median(peer):.1f}")
     if rows:
