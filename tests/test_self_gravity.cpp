@@ -45,6 +45,29 @@ dt = 2.0
 end = 1.0e6
 )";
 
+// The same box and mesh without the Hill frame: x and y periodic (no shear), so that a pair's
+// orbit and infall have closed forms (Newton plus the square lattice of images).
+const char* kFree = R"(
+seed = 11
+modules = ["contact", "self-gravity"]
+[domain]
+lo = [-100.0, -100.0, -16.0]
+hi = [100.0, 100.0, 16.0]
+boundary = ["periodic", "periodic", "open"]
+[self_gravity]
+grid = [32, 32, 16]
+[[species]]
+density = 400.0
+radius = 1.0
+t_c = 50.0
+e = 0.5
+[particles]
+init = "none"
+[time]
+dt = 1.0
+end = 1.0e9
+)";
+
 bool root() {
   int r = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &r);
@@ -185,11 +208,12 @@ TEST(SelfGravity, PlanarPatchMatchesTheDirectSumOverImages) {
   EXPECT_LT(rms, 0.03);  // measured 0.021 (the single-source errors above, summed over the patch)
 }
 
-TEST(SelfGravity, MeshPlusPairsIsNewtonAtEveryDistance) {
-  // Two particles, mesh (split eps = h = 6.25 m) plus the short range: the force on each is
-  // Newton's law summed over the other's sheared images (and its own images, whose pull the
-  // mesh carries too), from touching spheres (r = 2.1 m) to across the box. Near, the pairs
-  // carry almost all of it; at 1-3 h the mesh's CIC error on the Gaussian part remains.
+TEST(SelfGravity, MeshPlusPairsIsNewtonAtEveryDistanceAtTheDefaultSplit) {
+  // Two particles, mesh (the default split, eps = 2 h = 12.5 m) plus the short range: the force
+  // on each is Newton's law summed over the other's sheared images (and its own images, whose
+  // pull the mesh carries too), from touching spheres (r = 2.1 m) to across the box. Goal: within
+  // 2 % everywhere. At eps = h (the default before) the mesh's CIC error on the Gaussian part
+  // made 4.2 % at 1-3 h.
   if (!root()) return;
   double worst_near = 0, worst_mid = 0, worst_far = 0;
   const double m = 1.0e9, S = 29.0;
@@ -210,14 +234,143 @@ TEST(SelfGravity, MeshPlusPairsIsNewtonAtEveryDistance) {
       // for the sheared lattice's, which the direct sum includes too)
       const Vec3 ref = m * (image_sum({b}, {m}, a, 200.0, S, 12000.0, 1e-9) + image_sum({a}, {m}, a, 200.0, S, 12000.0, 1e-9, 0));
       const double e = (F[i0] - ref).norm() / ref.norm();
-      (r < 6.25 ? worst_near : r < 20 ? worst_mid : worst_far) = std::max(r < 6.25 ? worst_near : r < 20 ? worst_mid : worst_far, e);
+      double& worst = r < 6.25 ? worst_near : r < 20 ? worst_mid : worst_far;
+      worst = std::max(worst, e);
     }
   std::printf("mesh + pairs against Newton: worst relative error %.4f (r < h), %.4f (h..3h), %.4f (> 3h)\n", worst_near,
               worst_mid, worst_far);
-  // measured 0.016, 0.042, 0.026 (the far values are relative to a pull the images nearly cancel)
-  EXPECT_LT(worst_near, 0.025);
-  EXPECT_LT(worst_mid, 0.06);
-  EXPECT_LT(worst_far, 0.04);
+  // measured 0.0007, 0.0093, 0.012 (the far values relative to a pull the images nearly cancel);
+  // split = h: 0.016, 0.042, 0.026
+  EXPECT_LT(worst_near, 0.02);
+  EXPECT_LT(worst_mid, 0.02);
+  EXPECT_LT(worst_far, 0.02);
+}
+
+namespace {
+// Two equal particles (1e9 kg) at separation r0 in kFree's box, the relative vector at `angle`
+// in the plane; returns the simulation after setup.
+std::unique_ptr<Simulation> two_bodies(double r0, double angle, double dt, const std::vector<std::string>& extra,
+                                       double v_circular_fraction) {
+  std::vector<std::string> over = {"time.dt=" + std::to_string(dt)};
+  over.insert(over.end(), extra.begin(), extra.end());
+  const double m = 1.0e9;
+  const Vec3 c(3.0, -7.0, 0.7), u(std::cos(angle), std::sin(angle), 0.0), t(-std::sin(angle), std::cos(angle), 0.0);
+  auto make = [&](double v) {
+    auto sim = make_sim(kFree, over, MPI_COMM_SELF);
+    sim->particles.add(0, 0, 1.0, m, c - 0.5 * r0 * u, -v * t);
+    sim->particles.add(1, 0, 1.0, m, c + 0.5 * r0 * u, v * t);
+    sim->setup();
+    return sim;
+  };
+  if (v_circular_fraction == 0) return make(0.0);
+  // circular from the scheme's own initial pull (the images add an isotropic in-plane tide):
+  // v^2 / (r0 / 2) = |F| / m
+  auto probe = make(0.0);
+  std::vector<Vec3> F(2, Vec3::Zero());
+  gravity_of(*probe).add_body_forces(*probe, F);
+  return make(v_circular_fraction * std::sqrt(0.5 * r0 * std::abs(F[local_index(*probe, 0)].dot(u)) / m));
+}
+
+double separation(const Simulation& sim) {
+  const auto& p = sim.particles;
+  Vec3 d = p.x[local_index(sim, 1)] - p.x[local_index(sim, 0)];
+  for (int k = 0; k < 2; ++k) d[k] -= 200.0 * std::round(d[k] / 200.0);
+  return d.norm();
+}
+
+double kinetic(const Simulation& sim) {
+  double ke = 0;
+  for (std::size_t i = 0; i < sim.particles.nlocal; ++i) ke += 0.5 * sim.particles.mass[i] * sim.particles.v[i].squaredNorm();
+  return ke;
+}
+}  // namespace
+
+TEST(SelfGravity, CircularBinaryKeepsItsRadiusAndEnergy) {
+  // A circular binary at 1-3 grid spacings (h = 6.25 m), 10 orbits at 2,000 steps an orbit (the
+  // integrator's own error is ~1e-7 there): the pair force must be central and a gradient for
+  // the orbit-averaged r and KE to stay put. Goal 1e-4. At split = h the mesh's error is neither:
+  // r/r0 fell by 4 % at 1.5 h.
+  if (!root()) return;
+  const double m = 1.0e9, h = 6.25;
+  for (const double r_h : {1.0, 1.5, 2.0, 3.0}) {
+    const double r0 = r_h * h, period = 2 * kPi * std::sqrt(r0 * r0 * r0 / (2 * G * m));
+    auto sim = two_bodies(r0, 0.7, period / 2000, {}, 1.0);
+    const double ke0 = kinetic(*sim);
+    // orbit means (the mesh's error varies with the pair's angle to the grid, a wobble of
+    // ~1 % of the force that averages out over an orbit: what must not happen is a drift)
+    std::vector<double> r_mean(10, 0.0), ke_mean(10, 0.0);
+    double wobble = 0;
+    for (int s = 0; s < 20000; ++s) {
+      sim->step();
+      r_mean[s / 2000] += separation(*sim) / r0 / 2000;
+      ke_mean[s / 2000] += kinetic(*sim) / ke0 / 2000;
+      wobble = std::max(wobble, std::abs(separation(*sim) / r0 - 1));
+    }
+    double dr = 0, dke = 0;
+    for (int o = 1; o < 10; ++o) {
+      dr = std::max(dr, std::abs(r_mean[o] / r_mean[0] - 1));
+      dke = std::max(dke, std::abs(ke_mean[o] / ke_mean[0] - 1));
+    }
+    std::printf("binary at %.1f h: orbit means drift by |dr/r| = %.2e, |dKE/KE| = %.2e over 10 orbits (wobble %.2e)\n", r_h, dr,
+                dke, wobble);
+    // measured: 7e-8 / 2e-6, 3e-6 / 2e-6, 5e-5 / 8e-5 at 1, 1.5, 2 h; 2.4e-4 / 6.2e-4 at 3 h (where
+    // the mesh carries half the pull, and its ~1 % error is not a gradient: over 30 orbits the
+    // mean r there wanders by 3 %). split = h: 0.5, 0.036, 0.054, 0.011 in r.
+    const double bound = r_h <= 2 ? 1e-4 : 1e-3;
+    EXPECT_LT(dr, bound) << r_h << " h";
+    EXPECT_LT(dke, bound) << r_h << " h";
+  }
+}
+
+TEST(SelfGravity, InfallGainsThePotentialEnergyNewtonLoses) {
+  // Two particles fall from rest at 8 h = 50 m to 0.6 h = 3.75 m: the kinetic energy gained must
+  // be the drop of Newton's potential energy summed over the square lattice of images,
+  //   -Delta U = G m^2 sum_n (1/|d + n L| - 1/|d0 + n L|),
+  // (the sum converges: the terms fall as |n|^-3). Goal 0.5 %. Measured 0.99955 (0.9987 at 6.2 m,
+  // 1.00007 at 2.1 m); split = h: 1.0091 (1.0072 at 6.2 m, 1.0057 at 2.1 m).
+  if (!root()) return;
+  const double m = 1.0e9, h = 6.25, angle = 0.45;
+  auto sim = two_bodies(8 * h, angle, 0.25, {}, 0.0);
+  while (separation(*sim) > 0.6 * h) sim->step();
+  const auto& p = sim->particles;
+  Vec3 d = p.x[local_index(*sim, 1)] - p.x[local_index(*sim, 0)];
+  for (int k = 0; k < 2; ++k) d[k] -= 200.0 * std::round(d[k] / 200.0);
+  const Vec3 d0 = 8 * h * Vec3(std::cos(angle), std::sin(angle), 0.0);
+  double drop = 0;
+  for (int q = -100; q <= 100; ++q)
+    for (int n = -100; n <= 100; ++n) {
+      const Vec3 shift(200.0 * n, 200.0 * q, 0.0);
+      drop += 1 / (d + shift).norm() - 1 / (d0 + shift).norm();
+    }
+  drop *= G * m * m;
+  const double gained = kinetic(*sim);
+  std::printf("infall to %.2f m: KE gained / -Delta U (Newton with images) = %.5f\n", separation(*sim), gained / drop);
+  EXPECT_NEAR(gained / drop, 1.0, 0.005);
+}
+
+TEST(SelfGravity, RestingPairIsNotPumpedByTheMeshImpulse) {
+  // Two touching 2 m particles of the gravity-wakes scene (t_c = 20 s, N_c = 10, the Bridges
+  // law, elastic below v_c = 77 um/s), the mesh solved every 20 steps = 2 t_c: the period of the
+  // resting pair's contact oscillation. Their mutual pull (a_rel = 2 G m / r^2) only loads the
+  // spring: the relative speed stays at the loading oscillation's a_rel t_c / pi. Applied as an
+  // impulse every 2 t_c, the short range pumped it in resonance to ~0.8 v_c.
+  if (!root()) return;
+  const double a = 2.0, m = 400.0 * 4.0 / 3.0 * kPi * a * a * a;
+  auto sim = make_sim(with_bridges(kFree, 7.7e-5),
+                      {"species[0].radius=2.0", "species[0].t_c=20.0", "time.dt=2.0", "self_gravity.every=20"}, MPI_COMM_SELF);
+  sim->particles.add(0, 0, a, m, Vec3(10.0, 20.0, 0.3), Vec3::Zero());
+  sim->particles.add(1, 0, a, m, Vec3(10.0 + 2 * a * std::cos(0.3), 20.0 + 2 * a * std::sin(0.3), 0.3), Vec3::Zero());
+  sim->setup();
+  const double loading = 2 * G * m / (4 * a * a) * 20.0 / kPi;
+  double worst = 0;
+  for (int s = 0; s < 20000; ++s) {  // 40,000 s: 1,000 mesh impulses
+    sim->step();
+    const auto& p = sim->particles;
+    const Vec3 n = (p.x[local_index(*sim, 1)] - p.x[local_index(*sim, 0)]).normalized();
+    worst = std::max(worst, std::abs((p.v[local_index(*sim, 1)] - p.v[local_index(*sim, 0)]).dot(n)));
+  }
+  std::printf("resting pair: max relative normal speed %.3e m/s (loading oscillation %.3e, v_c 7.7e-05)\n", worst, loading);
+  EXPECT_LT(worst, 2 * loading);
 }
 
 TEST(SelfGravity, ConservesMomentumAndHasNoSelfForce) {

@@ -84,7 +84,7 @@ ModuleKind SelfGravity::kind() {
       }
     }
     const double spacing = std::max((c.hi[0] - c.lo[0]) / grid[0], (c.hi[1] - c.lo[1]) / grid[1]);
-    s.split = f.number(g + "split", spacing);
+    s.split = f.number(g + "split", 2 * spacing);  // within 1 % of Newton's law (SelfGravity.hpp)
     if (!(s.split > 0)) f.fail(g + "split", "a length > 0 (m): the width of the Gaussian splitting mesh and pairs");
     s.short_range = f.boolean(g + "short_range", true);
     s.every = f.integer(g + "every", 1);
@@ -103,8 +103,9 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
       sheared_(domain.shear.enabled),
       short_(cfg.get<Settings>().short_range),
       reach_(cfg.get<Settings>().reach()),
-      // at least r_s, and at most ~500 cells across the largest box side (with its halo)
-      cell_size_(std::max(reach_, (domain.length.maxCoeff() + 2 * cfg.halo_range()) / 500)),
+      list_range_(reach_ + cfg.skin),
+      // at least the list's range, and at most ~500 cells across the largest box side (with its halo)
+      cell_size_(std::max(list_range_, (domain.length.maxCoeff() + 2 * cfg.halo_range()) / 500)),
       lx_(domain.length[0]),
       ly_(domain.length[1]),
       eps_(cfg.get<Settings>().split),
@@ -352,10 +353,12 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Cells anchored to the box (the same for every rank count), each cell's particles in id
-// order: the partners of a particle are then visited in an order (cell offset, then id) that
-// does not depend on the decomposition, and its sum rounds alike on any rank count.
-void SelfGravity::index_pairs(const ParticleStore& p) const {
+// Each owned particle's partners within r_s + skin, owned or ghosts (binned in cells of at
+// least that size), sorted by id: the order of each particle's sum then depends neither on
+// the decomposition nor on when the list was built, so runs are bitwise the same on any rank
+// count and across restarts. Two images of one partner within reach would tie on id: the
+// halo's rule (box sides >= 2 x its range) rules that out.
+void SelfGravity::list_partners(const ParticleStore& p) {
   const std::size_t n = p.size();
   std::vector<std::array<long, 3>> key(n);
   std::array<long, 3> lo{0, 0, 0}, hi{0, 0, 0};
@@ -365,80 +368,92 @@ void SelfGravity::index_pairs(const ParticleStore& p) const {
       lo[d] = i ? std::min(lo[d], key[i][d]) : key[i][d];
       hi[d] = i ? std::max(hi[d], key[i][d]) : key[i][d];
     }
+  int cells[3];
   std::size_t total = 1;
   for (int d = 0; d < 3; ++d) {
-    cell_origin_[d] = lo[d];
-    cells_[d] = static_cast<int>(hi[d] - lo[d] + 1);
-    total *= cells_[d];
+    cells[d] = static_cast<int>(hi[d] - lo[d] + 1);
+    total *= cells[d];
   }
-  std::vector<std::uint32_t> cell(n);
-  cell_start_.assign(total + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t c = (static_cast<std::size_t>(key[i][2] - lo[2]) * cells_[1] + (key[i][1] - lo[1])) * cells_[0] +
-                          (key[i][0] - lo[0]);
-    cell[i] = static_cast<std::uint32_t>(c);
-    ++cell_start_[c + 1];
+  auto cell_of = [&](long x, long y, long z) { return (static_cast<std::size_t>(z) * cells[1] + y) * cells[0] + x; };
+  std::vector<std::uint32_t> start(total + 1, 0), items(n);
+  for (std::size_t i = 0; i < n; ++i) ++start[cell_of(key[i][0] - lo[0], key[i][1] - lo[1], key[i][2] - lo[2]) + 1];
+  for (std::size_t c = 0; c < total; ++c) start[c + 1] += start[c];
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    items[fill[cell_of(key[i][0] - lo[0], key[i][1] - lo[1], key[i][2] - lo[2])]++] = static_cast<std::uint32_t>(i);
+
+  const double r2max = list_range_ * list_range_;
+  partner_start_.assign(p.nlocal + 1, 0);
+  partner_.clear();
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const std::size_t first = partner_.size();
+    long c[3];
+    for (int d = 0; d < 3; ++d) c[d] = key[i][d] - lo[d];
+    for (long z = std::max(0L, c[2] - 1); z <= std::min<long>(cells[2] - 1, c[2] + 1); ++z)
+      for (long y = std::max(0L, c[1] - 1); y <= std::min<long>(cells[1] - 1, c[1] + 1); ++y)
+        for (long x = std::max(0L, c[0] - 1); x <= std::min<long>(cells[0] - 1, c[0] + 1); ++x) {
+          const std::size_t cell = cell_of(x, y, z);
+          for (std::uint32_t q = start[cell]; q < start[cell + 1]; ++q) {
+            const std::uint32_t j = items[q];
+            if (j != i && (p.x[j] - p.x[i]).squaredNorm() < r2max) partner_.push_back(j);
+          }
+        }
+    std::sort(partner_.begin() + first, partner_.end(), [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
+    partner_start_[i + 1] = static_cast<std::uint32_t>(partner_.size());
   }
-  for (std::size_t c = 0; c < total; ++c) cell_start_[c + 1] += cell_start_[c];
-  cell_items_.resize(n);
-  std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-  for (std::size_t i = 0; i < n; ++i) cell_items_[fill[cell[i]]++] = static_cast<std::uint32_t>(i);
-  for (std::size_t c = 0; c < total; ++c)
-    std::sort(cell_items_.begin() + cell_start_[c], cell_items_.begin() + cell_start_[c + 1],
-              [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
+}
+
+void SelfGravity::post_rebuild(Simulation& sim) {
+  if (short_) list_partners(sim.particles);
 }
 
 Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi) const {
   const Vec3& xi = p.x[i];
-  long c[3];
-  for (int d = 0; d < 3; ++d) c[d] = static_cast<long>(std::floor((xi[d] - lo_[d]) / cell_size_)) - cell_origin_[d];
   const double r2max = reach_ * reach_, G = kGravitationalConstant, to_s = kTable / r2max;
   Vec3 a = Vec3::Zero();
   double u = 0;
-  for (long z = std::max(0L, c[2] - 1); z <= std::min<long>(cells_[2] - 1, c[2] + 1); ++z)
-    for (long y = std::max(0L, c[1] - 1); y <= std::min<long>(cells_[1] - 1, c[1] + 1); ++y)
-      for (long x = std::max(0L, c[0] - 1); x <= std::min<long>(cells_[0] - 1, c[0] + 1); ++x) {
-        const std::size_t cell = (static_cast<std::size_t>(z) * cells_[1] + y) * cells_[0] + x;
-        for (std::uint32_t q = cell_start_[cell]; q < cell_start_[cell + 1]; ++q) {
-          const std::uint32_t j = cell_items_[q];
-          const Vec3 d = p.x[j] - xi;
-          const double r2 = d.squaredNorm();
-          if (j == i || r2 >= r2max) continue;
-          const double r = std::sqrt(r2), s = r2 * to_s;
-          const std::size_t k = static_cast<std::size_t>(s);
-          const double f = s - static_cast<double>(k);
-          const double w = w_table_[k] + f * (w_table_[k + 1] - w_table_[k]);
-          a += (G * p.mass[j] * w / (r2 * r)) * d;
-          if (phi) u -= G * p.mass[j] * (erfc_table_[k] + f * (erfc_table_[k + 1] - erfc_table_[k])) / r;
-        }
-      }
+  for (std::uint32_t q = partner_start_[i]; q < partner_start_[i + 1]; ++q) {
+    const std::uint32_t j = partner_[q];
+    const Vec3 d = p.x[j] - xi;
+    const double r2 = d.squaredNorm();
+    if (r2 >= r2max) continue;
+    const double r = std::sqrt(r2), s = r2 * to_s;
+    const std::size_t k = static_cast<std::size_t>(s);
+    const double f = s - static_cast<double>(k);
+    const double w = w_table_[k] + f * (w_table_[k + 1] - w_table_[k]);
+    a += (G * p.mass[j] * w / (r2 * r)) * d;
+    if (phi) u -= G * p.mass[j] * (erfc_table_[k] + f * (erfc_table_[k + 1] - erfc_table_[k])) / r;
+  }
   if (phi) *phi = u;
   return a;
 }
 
 void SelfGravity::force(Simulation& sim) {
-  if (sim.step_count % every_ != 0) return;
-  solve(sim, false);
   ParticleStore& p = sim.particles;
-  const auto start = std::chrono::steady_clock::now();
-  if (short_) index_pairs(p);
-  const double weight = static_cast<double>(every_);  // the impulse of `every` steps
   const Simulation::TargetList T = sim.target_list();
+  const bool mesh = sim.step_count % every_ == 0;
+  if (mesh) solve(sim, false);
+  const auto start = std::chrono::steady_clock::now();
+  const double weight = static_cast<double>(every_);  // the mesh's impulse of `every` steps
   // Kept for the bookkeeping later in this step (the energy guard, a snapshot's body forces):
   // the positions do not change before the step ends.
-  cached_accel_.assign(p.nlocal, Vec3::Zero());
+  if (mesh) cached_accel_.assign(p.nlocal, Vec3::Zero());
   double u = 0;
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
     double near = 0;
-    const Vec3 a = short_ ? Vec3(field(p.x[i]) + short_range(p, i, &near)) : field(p.x[i]);
-    p.f[i] += weight * p.mass[i] * a;
-    cached_accel_[i] = a;
+    const Vec3 a_short = short_ ? short_range(p, i, mesh ? &near : nullptr) : Vec3(Vec3::Zero());
+    p.f[i] += p.mass[i] * a_short;
+    if (!mesh) continue;
+    const Vec3 a_mesh = field(p.x[i]);
+    p.f[i] += weight * p.mass[i] * a_mesh;
+    cached_accel_[i] = a_mesh + a_short;
     u += 0.5 * p.mass[i] * (potential(p.x[i]) + near);
   }
+  apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!mesh) return;
   cached_potential_ = u;
   cached_step_ = sim.all_targets ? sim.step_count : -1;
-  apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::ostringstream os;
   os << "{\"solves\": " << solves_ << ", \"mesh_seconds\": " << solve_seconds_
      << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"allreduce_bytes\": " << reduced_bytes_
@@ -457,7 +472,6 @@ void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) c
     return;
   }
   const_cast<SelfGravity*>(this)->solve(sim, false);
-  if (short_) index_pairs(p);
   for (std::size_t i = 0; i < p.nlocal; ++i)
     F[i] += p.mass[i] * (short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]));
 }
@@ -466,7 +480,6 @@ double SelfGravity::potential_energy(const Simulation& sim) const {
   if (cached_step_ == sim.step_count) return cached_potential_;
   const_cast<SelfGravity*>(this)->solve(sim, false);
   const ParticleStore& p = sim.particles;
-  if (short_) index_pairs(p);
   double u = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     double near = 0;

@@ -13,17 +13,22 @@
 // images, O(N_z^2) per mode. Planar scenes use one layer and only the in-plane force.
 //
 // Long and short range (P3M with a Gaussian split, as Ewald summation splits): the mesh carries
-// the pull of Gaussian spheres of width eps (self_gravity.split; default the grid spacing), and
+// the pull of Gaussian spheres of width eps (self_gravity.split; default two grid spacings), and
 // pairs closer than r_s = 4 sqrt(2) eps add the rest, Newton's law minus the Gaussians',
 //   g_short(r) = G m / r^2 (erfc(x) + 2 x exp(-x^2) / sqrt(pi)),  x = r / (eps sqrt 2),
 // which is 5e-7 of Newton's at r_s. Together: Newton's law between the particles' centres at
 // every distance (exact for non-overlapping spheres: no softening is needed), including
-// particles resting on each other in a wake. The halo is widened to r_s + skin for the pairs;
-// each particle visits its partners in an order independent of the decomposition (cells
-// anchored to the box, ids within a cell), so the sum is the same on any rank count. Without the short
-// range (self_gravity.short_range = false) every particle is a Gaussian of width eps: cheaper,
-// right only on scales well above eps. A Gaussian sphere pulls as Newton's law outside a few
-// eps (a flat disc, as 2D-softened sheet codes use, would pull ~3 eps^2 / r^2 too hard).
+// particles resting on each other in a wake. Why eps = 2 h by default: at eps = h the mesh's CIC
+// error on the Gaussian part is 5-10 % of it at 1-3 h, 2-5 % of the total force there, and the
+// error is not a gradient: a binary at 1.5 h spirals in while gaining kinetic energy; at 2 h the
+// total is within 1 % of Newton's everywhere and binaries keep r and KE to 1e-4
+// (tests/test_self_gravity.cpp). The halo is widened to r_s + skin for the pairs; each
+// particle's partners within r_s + skin are listed at every rebuild in id order (a Verlet list:
+// the rebuild rule covers the halo's range), so its sum is the same on any rank count and after
+// a restart, whenever the list was built. Without the short range (self_gravity.short_range =
+// false) every particle is a Gaussian of width eps: cheaper, right only on scales well above
+// eps. A Gaussian sphere pulls as Newton's law outside a few eps (a flat disc, as 2D-softened
+// sheet codes use, would pull ~3 eps^2 / r^2 too hard).
 //
 // Accuracy of the mesh part: the cloud-in-cell (CIC) windows of assignment and interpolation
 // are divided out of every mode. Both use the same weights and the force kernels are odd, so
@@ -40,9 +45,12 @@
 // on any rank count. The redundant transform is cheap at the grids one rank-pair machine runs
 // (docs/rings.md); a distributed FFT is what a large run would need (docs/scaling.md).
 //
-// Multiple time stepping (self_gravity.every = n): the slowly varying field is solved every
-// n steps and applied as n times its force (the impulse, r-RESPA form: symplectic, the kicks
-// n dt F at the solve steps).
+// Multiple time stepping (self_gravity.every = n): the mesh's smooth field is solved every n
+// steps and applied as n times its force (the impulse, r-RESPA form: symplectic). The short
+// range is applied every step: it holds the stiff part (touching particles' full pull), and as
+// an impulse every n dt it drives a resting pair's contact oscillation, in resonance where n dt
+// is a multiple of the oscillation's period 2 t_c (cases/gravity-wakes: 20 steps = 2 t_c pumped
+// a resting pair from 1.4e-6 to 6.4e-5 m/s, which the Bridges law leaves undamped).
 #include <array>
 #include <cmath>
 #include <complex>
@@ -79,8 +87,10 @@ class SelfGravity : public Module {
   SelfGravity& operator=(const SelfGravity&) = delete;
   std::string name() const override { return "self-gravity"; }
   unsigned stages() const override { return kForce | kRebuild; }
-  // A rebuild reorders the particles: the values kept from the last solve no longer apply.
+  // A rebuild reorders the particles: the values kept from the last solve no longer apply, and
+  // the short range's partners are listed again.
   void pre_rebuild(Simulation&) override { cached_step_ = -1; }
+  void post_rebuild(Simulation& sim) override;
   void force(Simulation& sim) override;
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
   // 1/2 sum m phi over the owned particles.
@@ -94,9 +104,8 @@ class SelfGravity : public Module {
   Vec3 field(const Vec3& x) const;
   double potential(const Vec3& x) const;
   // The short-range acceleration of particle i (owned) from its partners within r_s, owned or
-  // ghosts, and (if asked) its short-range potential. Needs index_pairs() after the last move.
+  // ghosts, and (if asked) its short-range potential: from the partners listed at the last rebuild.
   Vec3 short_range(const ParticleStore& p, std::size_t i, double* phi = nullptr) const;
-  void index_pairs(const ParticleStore& p) const;  // bins owned and ghost particles into cells of r_s
 
   long solves() const { return solves_; }
   double solve_seconds() const { return solve_seconds_; }
@@ -114,11 +123,12 @@ class SelfGravity : public Module {
   int nx_, ny_, nz_;
   bool planar_, sheared_, short_;
   double reach_;      // r_s
-  double cell_size_;  // of the pair cells, >= r_s
-  // Cells over the owned and ghost particles (index_pairs).
-  mutable long cell_origin_[3] = {0, 0, 0};
-  mutable int cells_[3] = {1, 1, 1};
-  mutable std::vector<std::uint32_t> cell_start_, cell_items_;
+  double list_range_;  // r_s + skin: the partners listed at a rebuild
+  double cell_size_;   // of the cells binning them, >= list_range_
+  // Each owned particle's partners (owned or ghost, within list_range_ at the last rebuild),
+  // in id order: partner_[partner_start_[i] .. partner_start_[i + 1]).
+  std::vector<std::uint32_t> partner_start_, partner_;
+  void list_partners(const ParticleStore& p);
   // The short-range law against s = r^2 / r_s^2 on a uniform table (linear interpolation: error
   // < 1e-6 of w for r > 0.1 r_s): w = erfc(x) + 2 x exp(-x^2) / sqrt(pi) and erfc(x).
   std::vector<double> w_table_, erfc_table_;
@@ -140,12 +150,12 @@ class SelfGravity : public Module {
   void* backward_ = nullptr;
   long solves_ = 0;
   double solve_seconds_ = 0, apply_seconds_ = 0;  // mesh solves; interpolation and short range
-  double reduced_bytes_ = 0;
+  double reduced_bytes_ = 0;  // the mesh deposit's all-reduce payload, per rank, since the run started
   // The last force() solve's accelerations (per owned particle) and potential energy, valid
   // until the step ends or a rebuild reorders the particles.
   long cached_step_ = -1;
   std::vector<Vec3> cached_accel_;
-  double cached_potential_ = 0;  // the mesh deposit's all-reduce payload, per rank, since the run started
+  double cached_potential_ = 0;
 };
 
 }  // namespace cassini
