@@ -7,7 +7,8 @@ refined with it so the spacing stays 3.1 m), a short run each, one rank.
 Prints, per N and rank count: wall seconds per step, the mesh solve's and the pairs'
 (interpolation and short range) shares, particle-steps per second, and the communication
 volumes per step summed over ranks: halo bytes and messages (ghost updates, ghost builds,
-migration) and the mesh deposit's all-reduce payload per solve and rank. The mesh solve is
+migration), the mesh's bytes sent to other ranks per solve (deposit rows, transposes, field rows;
+rank 0's) and its buffers per rank. The mesh solve is
 O(G log G) on G grid nodes plus O(N) deposit and interpolation; the pairs are O(N) at fixed
 surface density. Rank counts above the cores are oversubscribed: their volumes are real, their
 times are not.
@@ -29,7 +30,7 @@ def main():
     exe = os.environ.get("CASSINI", os.path.join(ROOT, "build/cassini"))
     T0 = 2 * 3.141592653589793 / 1.3144e-4
     print(f"{'L m':>6} {'N':>8} {'grid':>14} {'ranks':>5} {'s/step':>9} {'mesh %':>7} {'pairs %':>8} "
-          f"{'particle-steps/s':>17} {'halo B/step':>12} {'msgs/step':>9} {'reduce B/solve':>14}")
+          f"{'particle-steps/s':>17} {'halo B/step':>12} {'msgs/step':>9} {'mesh B/solve':>13} {'mesh B/rank':>12}")
     for L, ranks in [(float(x), int(r)) for x in a.sides.split(",") for r in a.ranks.split(",")]:
         n = round(1492 * (L / 200) ** 2)
         g = round(64 * L / 200)
@@ -49,7 +50,7 @@ def main():
         print(f"{L:6.0f} {n:8d} {str(sg['grid']):>14} {ranks:5d} {wall / steps:9.2e} {100 * sg['mesh_seconds'] / wall:7.1f} "
               f"{100 * sg['interpolation_and_pairs_seconds'] / wall:8.1f} {s['particle_steps_per_second']:17.3e} "
               f"{s['halo_bytes_per_step']:12.3e} {s['halo_messages_per_step']:9.2f} "
-              f"{sg['allreduce_bytes'] / sg['solves']:14.3e}", flush=True)
+              f"{sg['bytes_moved_per_solve']:13.3e} {sg['mesh_bytes_per_rank']:12.3e}", flush=True)
 
 
 if __name__ == "__main__":

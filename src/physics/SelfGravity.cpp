@@ -150,62 +150,70 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
         kernel_table_[(static_cast<std::size_t>(i) * nz_ + d) * 2 + 1] = az;
       }
   }
-  const std::size_t nodes = static_cast<std::size_t>(nx_) * ny_ * nz_;
-  const std::size_t modes = static_cast<std::size_t>(nx_ / 2 + 1) * ny_ * nz_;
-  ax_.assign(nodes, 0.0);
-  ay_.assign(nodes, 0.0);
-  az_.assign(nodes, 0.0);
-  phi_.assign(nodes, 0.0);
-  mass_.assign(nodes, 0);
-  real_ = fftw_alloc_real(nodes);
-  spec_ = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
-  for (auto*& o : out_) o = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(modes));
-  // One 2D transform per layer, run on the layers that matter (fftw_execute_dft_* on each).
-  // FFTW_ESTIMATE | FFTW_UNALIGNED: the plan is a function of the sizes only and takes one code
-  // path for any layer's address, the same on every rank and run.
+  comm_ = domain.comm;
+  MPI_Comm_rank(comm_, &rank_);
+  MPI_Comm_size(comm_, &nranks_);
+  boxes_.assign(4 * static_cast<std::size_t>(nranks_), 0);
+  // Plans on scratch arrays; FFTW_UNALIGNED lets them run on any array of these sizes.
+  const int mx = nx_ / 2 + 1;
+  std::vector<double> r(nx_);
+  std::vector<std::complex<double>> c(std::max(mx, ny_)), d(std::max(mx, ny_));
+  auto* cc = reinterpret_cast<fftw_complex*>(c.data());
+  auto* dd = reinterpret_cast<fftw_complex*>(d.data());
   const unsigned flags = FFTW_ESTIMATE | FFTW_UNALIGNED;
-  forward_ = fftw_plan_dft_r2c_2d(ny_, nx_, real_, reinterpret_cast<fftw_complex*>(spec_), flags);
-  backward_ = fftw_plan_dft_c2r_2d(ny_, nx_, reinterpret_cast<fftw_complex*>(out_[0]), real_, flags);
+  row_forward_ = fftw_plan_dft_r2c_1d(nx_, r.data(), cc, flags);
+  row_backward_ = fftw_plan_dft_c2r_1d(nx_, cc, r.data(), flags);
+  col_forward_ = fftw_plan_dft_1d(ny_, cc, dd, FFTW_FORWARD, flags);
+  col_backward_ = fftw_plan_dft_1d(ny_, cc, dd, FFTW_BACKWARD, flags);
 }
 
 SelfGravity::~SelfGravity() {
-  fftw_destroy_plan(static_cast<fftw_plan>(forward_));
-  fftw_destroy_plan(static_cast<fftw_plan>(backward_));
-  fftw_free(real_);
-  fftw_free(spec_);
-  for (auto* o : out_) fftw_free(o);
+  for (void* plan : {row_forward_, row_backward_, col_forward_, col_backward_}) fftw_destroy_plan(static_cast<fftw_plan>(plan));
 }
 
-SelfGravity::Stencil SelfGravity::stencil(const Vec3& x) const {
-  Stencil s{};
+SelfGravity::Cell SelfGravity::locate(const Vec3& x) const {
+  Cell c{};
   const double xs = sheared_ ? x[0] - shear_ * (x[1] - lo_[1]) / ly_ : x[0];
   const double u = (xs - lo_[0]) / h_[0], v = (x[1] - lo_[1]) / h_[1];
   const double fu = std::floor(u), fv = std::floor(v);
-  const double wx = u - fu, wy = v - fv;
-  const std::size_t i0 = wrap(static_cast<long>(fu), nx_), i1 = wrap(static_cast<long>(fu) + 1, nx_);
-  const std::size_t j0 = wrap(static_cast<long>(fv), ny_), j1 = wrap(static_cast<long>(fv) + 1, ny_);
-  const std::size_t nx = nx_, plane = static_cast<std::size_t>(nx_) * ny_;
-  std::size_t k0 = 0, k1 = 0;
-  double wz = 0;
+  c.i = static_cast<long>(fu);
+  c.j = static_cast<long>(fv);
+  c.wx = u - fu;
+  c.wy = v - fv;
   if (!planar_) {  // layer centres at lo_z + (k + 1/2) h_z; beyond the outer centres, the outer layer
     const double t = (x[2] - lo_[2]) / h_[2] - 0.5;
     if (t <= 0) {
-      k0 = k1 = 0;
+      c.k0 = c.k1 = 0;
     } else if (t >= nz_ - 1) {
-      k0 = k1 = nz_ - 1;
+      c.k0 = c.k1 = nz_ - 1;
     } else {
-      k0 = static_cast<std::size_t>(t);
-      k1 = k0 + 1;
-      wz = t - static_cast<double>(k0);
+      c.k0 = static_cast<int>(t);
+      c.k1 = c.k0 + 1;
+      c.wz = t - static_cast<double>(c.k0);
     }
   }
-  const std::size_t ks[2] = {k0, k1};
-  const double wzs[2] = {1 - wz, wz};
-  for (int c = 0; c < (planar_ ? 1 : 2); ++c)
-    for (int b = 0; b < 2; ++b)
+  return c;
+}
+
+bool SelfGravity::in_box(int rank, long j) const {
+  return static_cast<long>(wrap(j - boxes_[4 * rank + 1], ny_)) < boxes_[4 * rank + 3];
+}
+long SelfGravity::box_row(int rank, long j) const { return static_cast<long>(wrap(j - boxes_[4 * rank + 1], ny_)); }
+
+SelfGravity::Stencil SelfGravity::stencil(const Vec3& x) const {
+  const Cell c = locate(x);
+  const long* b = &boxes_[4 * rank_];
+  const std::size_t cols = b[2], rows = b[3];
+  const std::size_t i0 = wrap(c.i - b[0], nx_), i1 = wrap(c.i + 1 - b[0], nx_);
+  const std::size_t j0 = wrap(c.j - b[1], ny_), j1 = wrap(c.j + 1 - b[1], ny_);
+  const std::size_t ks[2] = {static_cast<std::size_t>(c.k0 - first_), static_cast<std::size_t>(c.k1 - first_)};
+  const double wzs[2] = {1 - c.wz, c.wz};
+  Stencil s{};
+  for (int l = 0; l < (planar_ ? 1 : 2); ++l)
+    for (int bj = 0; bj < 2; ++bj)
       for (int a = 0; a < 2; ++a) {
-        s.node[s.n] = ks[c] * plane + (b ? j1 : j0) * nx + (a ? i1 : i0);
-        s.w[s.n] = (a ? wx : 1 - wx) * (b ? wy : 1 - wy) * wzs[c];
+        s.node[s.n] = (ks[l] * rows + (bj ? j1 : j0)) * cols + (a ? i1 : i0);
+        s.w[s.n] = (a ? c.wx : 1 - c.wx) * (bj ? c.wy : 1 - c.wy) * wzs[l];
         ++s.n;
       }
   return s;
@@ -219,10 +227,53 @@ double SelfGravity::interpolate(const std::vector<double>& g, const Stencil& s) 
 
 Vec3 SelfGravity::field(const Vec3& x) const {
   const Stencil s = stencil(x);
-  return Vec3(interpolate(ax_, s), interpolate(ay_, s), planar_ ? 0.0 : interpolate(az_, s));
+  return Vec3(interpolate(box_field_[0], s), interpolate(box_field_[1], s), planar_ ? 0.0 : interpolate(box_field_[2], s));
 }
 
-double SelfGravity::potential(const Vec3& x) const { return interpolate(phi_, stencil(x)); }
+double SelfGravity::potential(const Vec3& x) const { return interpolate(box_field_[3], stencil(x)); }
+
+// This rank's box: the columns and rows its owned particles' stencils touch (the whole grid when
+// they wrap around or `whole`), gathered from every rank.
+void SelfGravity::set_box(const ParticleStore& p, bool whole) {
+  long lo[2] = {0, 0}, hi[2] = {-1, -1};
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Cell c = locate(p.x[i]);
+    const long at[2] = {c.i, c.j};
+    for (int d = 0; d < 2; ++d) {
+      lo[d] = i ? std::min(lo[d], at[d]) : at[d];
+      hi[d] = i ? std::max(hi[d], at[d] + 1) : at[d] + 1;
+    }
+  }
+  const long n[2] = {nx_, ny_};
+  long mine[4];
+  for (int d = 0; d < 2; ++d) {
+    const long width = hi[d] - lo[d] + 1;
+    if (whole || width >= n[d]) {
+      mine[d] = 0;
+      mine[2 + d] = n[d];
+    } else {
+      mine[d] = static_cast<long>(wrap(lo[d], static_cast<int>(n[d])));
+      mine[2 + d] = std::max(0L, width);
+    }
+  }
+  MPI_Allgather(mine, 4, MPI_LONG, boxes_.data(), 4, MPI_LONG, comm_);
+}
+
+double SelfGravity::exchange(const std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
+                             const std::vector<int>& rcount) const {
+  std::vector<int> sdispl(nranks_, 0), rdispl(nranks_, 0);
+  for (int q = 1; q < nranks_; ++q) {
+    sdispl[q] = sdispl[q - 1] + scount[q - 1];
+    rdispl[q] = rdispl[q - 1] + rcount[q - 1];
+  }
+  recv.resize(static_cast<std::size_t>(rdispl.back()) + rcount.back());
+  MPI_Alltoallv(send.data(), scount.data(), sdispl.data(), MPI_DOUBLE, recv.data(), rcount.data(), rdispl.data(),
+                MPI_DOUBLE, comm_);
+  double sent = 0;
+  for (int q = 0; q < nranks_; ++q)
+    if (q != rank_) sent += scount[q];
+  return sent * sizeof(double);
+}
 
 void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   const auto start = std::chrono::steady_clock::now();
@@ -232,79 +283,153 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
     shear_ = sim.domain.shear.wrapped(lx_);
     if (shear_ >= 0.5 * lx_) shear_ -= lx_;
   }
-
-  // Deposit in fixed point: the all-reduced sum is exact, so independent of the rank count.
+  // Deposit in fixed point: the sums are exact, so independent of the rank count.
   double heaviest = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) heaviest = std::max(heaviest, p.mass[i]);
-  MPI_Allreduce(MPI_IN_PLACE, &heaviest, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  // The layers the particles touch (a ring fills a few): only those are deposited and
+  // transformed, and the fields computed there and one layer beyond (every layer if asked).
+  int span[2] = {nz_, nz_};  // min layer, -max layer
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    const Cell c = locate(p.x[i]);
+    span[0] = std::min(span[0], c.k0);
+    span[1] = std::min(span[1], -c.k1);
+  }
+  {
+    double h[3] = {heaviest, static_cast<double>(-span[0]), static_cast<double>(-span[1])};  // mass, -min, max layer
+    MPI_Allreduce(MPI_IN_PLACE, h, 3, MPI_DOUBLE, MPI_MAX, comm_);
+    heaviest = h[0];
+    span[0] = static_cast<int>(-h[1]);
+    span[1] = static_cast<int>(-h[2]);
+  }
   const double unit = heaviest > 0 ? std::ldexp(heaviest, -40) : 1.0;
-  // The layers the particles touch (a ring fills a few): only those are deposited, reduced and
-  // transformed, and only those are sources (the same on every rank).
-  const std::size_t plane = static_cast<std::size_t>(nx_) * ny_;
-  int span[2] = {nz_, -nz_};  // min layer, -max layer
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const Stencil s = stencil(p.x[i]);
-    span[0] = std::min(span[0], static_cast<int>(s.node[0] / plane));
-    span[1] = std::min(span[1], -static_cast<int>(s.node[s.n - 1] / plane));
-  }
-  MPI_Allreduce(MPI_IN_PLACE, span, 2, MPI_INT, MPI_MIN, sim.domain.comm);
   const int zlo = std::min(span[0], nz_ - 1), zhi = std::min(nz_ - 1, std::max(-span[1], zlo));
-  const std::size_t from = zlo * plane, count = (zhi - zlo + 1) * plane;
-  std::fill(mass_.begin() + from, mass_.begin() + from + count, 0);
+  first_ = every_layer ? 0 : std::max(0, zlo - 1);
+  last_ = every_layer ? nz_ - 1 : std::min(nz_ - 1, zhi + 1);
+  const int L = last_ - first_ + 1;
+  set_box(p, every_layer);
+  const long* mine = &boxes_[4 * rank_];
+  const std::size_t cols = mine[2], rows = mine[3];
+
+  // 1. Deposit on the box, then to the rows' owners (as doubles: integers below 2^53 are exact).
+  box_mass_.assign(static_cast<std::size_t>(L) * rows * cols, 0);
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const Stencil s = stencil(p.x[i]);
-    for (int q = 0; q < s.n; ++q) mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
+    for (int q = 0; q < s.n; ++q) box_mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
   }
-  MPI_Allreduce(MPI_IN_PLACE, mass_.data() + from, static_cast<int>(count), MPI_INT64_T, MPI_SUM, sim.domain.comm);
-  reduced_bytes_ += static_cast<double>(count) * sizeof(std::int64_t);
-  const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
-  for (std::size_t g = from; g < from + count; ++g) real_[g] = static_cast<double>(mass_[g]) * to_sigma;
+  const long r0 = row_lo(rank_), r1 = row_lo(rank_ + 1), my_rows = r1 - r0;
+  std::vector<int> scount(nranks_, 0), rcount(nranks_, 0);
+  send_.clear();
+  for (int q = 0; q < nranks_; ++q) {
+    const std::size_t before = send_.size();
+    for (int b = zlo; b <= zhi; ++b)
+      for (long j = row_lo(q); j < row_lo(q + 1); ++j)
+        if (in_box(rank_, j)) {
+          const std::int64_t* row = &box_mass_[((b - first_) * rows + box_row(rank_, j)) * cols];
+          for (std::size_t c = 0; c < cols; ++c) send_.push_back(static_cast<double>(row[c]));
+        }
+    scount[q] = static_cast<int>(send_.size() - before);
+    long n = 0;
+    for (long j = r0; j < r1; ++j) n += in_box(q, j) ? boxes_[4 * q + 2] : 0;
+    rcount[q] = static_cast<int>(n * (zhi - zlo + 1));
+  }
+  moved_bytes_ += exchange(send_, scount, recv_, rcount);
+  const int Ld = zhi - zlo + 1;
+  row_mass_.assign(static_cast<std::size_t>(Ld) * my_rows * nx_, 0);
+  {
+    std::size_t at = 0;
+    for (int q = 0; q < nranks_; ++q)
+      for (int b = zlo; b <= zhi; ++b)
+        for (long j = r0; j < r1; ++j)
+          if (in_box(q, j)) {
+            std::int64_t* row = &row_mass_[((b - zlo) * my_rows + (j - r0)) * nx_];
+            for (long c = 0, i = boxes_[4 * q]; c < boxes_[4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
+              row[i] += static_cast<std::int64_t>(recv_[at++]);
+          }
+  }
+  // The source layers: those holding mass anywhere.
+  std::vector<int> has(Ld, 0);
+  for (int b = 0; b < Ld; ++b)
+    has[b] = std::any_of(row_mass_.begin() + static_cast<std::size_t>(b) * my_rows * nx_,
+                         row_mass_.begin() + static_cast<std::size_t>(b + 1) * my_rows * nx_, [](std::int64_t q) { return q != 0; });
+  MPI_Allreduce(MPI_IN_PLACE, has.data(), Ld, MPI_INT, MPI_MAX, comm_);
   std::vector<int> sources;
-  for (int b = zlo; b <= zhi; ++b)
-    if (std::any_of(mass_.begin() + b * plane, mass_.begin() + (b + 1) * plane, [](std::int64_t q) { return q != 0; }))
-      sources.push_back(b);
-  const int mx = nx_ / 2 + 1;
-  const std::size_t cplane = static_cast<std::size_t>(mx) * ny_;
-  for (const int b : sources)
-    fftw_execute_dft_r2c(static_cast<fftw_plan>(forward_), real_ + b * plane,
-                         reinterpret_cast<fftw_complex*>(spec_ + b * cplane));
-  int first = 0, last = nz_ - 1;  // the layers whose field is computed
-  if (!every_layer && !sources.empty()) {
-    first = std::max(0, sources.front() - 1);
-    last = std::min(nz_ - 1, sources.back() + 1);
-  }
-  int reach = 0;  // the largest layer distance from a source to a computed layer
-  if (!sources.empty()) reach = std::max(last - sources.front(), sources.back() - first);
+  for (int b = 0; b < Ld; ++b)
+    if (has[b]) sources.push_back(zlo + b);
+  const int S = static_cast<int>(sources.size());
 
-  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out. One
-  // row of modes (fixed n) at a time, so every layer's modes are read and written in
-  // contiguous runs; the kernels of the row (per mode and layer distance) stay in cache.
+  // 2. Rows along x, transposed to mode columns, columns along y.
+  const int mx = nx_ / 2 + 1;
+  const long c0 = col_lo(rank_), c1 = col_lo(rank_ + 1), my_cols = c1 - c0;
+  const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
+  row_real_.resize(nx_);
+  row_spec_.resize(static_cast<std::size_t>(std::max(S, L)) * my_rows * mx);
+  for (int s = 0; s < S; ++s)
+    for (long j = 0; j < my_rows; ++j) {
+      const std::int64_t* m = &row_mass_[((sources[s] - zlo) * my_rows + j) * nx_];
+      for (int i = 0; i < nx_; ++i) row_real_[i] = static_cast<double>(m[i]) * to_sigma;
+      fftw_execute_dft_r2c(static_cast<fftw_plan>(row_forward_), row_real_.data(),
+                           reinterpret_cast<fftw_complex*>(&row_spec_[(s * my_rows + j) * mx]));
+    }
+  send_.clear();
+  for (int q = 0; q < nranks_; ++q) {
+    const std::size_t before = send_.size();
+    for (int s = 0; s < S; ++s)
+      for (long j = 0; j < my_rows; ++j)
+        for (long m = col_lo(q); m < col_lo(q + 1); ++m) {
+          const std::complex<double> v = row_spec_[(s * my_rows + j) * mx + m];
+          send_.push_back(v.real());
+          send_.push_back(v.imag());
+        }
+    scount[q] = static_cast<int>(send_.size() - before);
+    rcount[q] = static_cast<int>(2 * S * (row_lo(q + 1) - row_lo(q)) * my_cols);
+  }
+  moved_bytes_ += exchange(send_, scount, recv_, rcount);
+  col_spec_.resize(static_cast<std::size_t>(S) * my_cols * ny_);
+  {
+    std::size_t at = 0;
+    for (int q = 0; q < nranks_; ++q)
+      for (int s = 0; s < S; ++s)
+        for (long j = row_lo(q); j < row_lo(q + 1); ++j)
+          for (long m = 0; m < my_cols; ++m, at += 2)
+            col_spec_[(s * my_cols + m) * ny_ + j] = {recv_[at], recv_[at + 1]};
+  }
+  std::vector<std::complex<double>> column(ny_);
+  for (int s = 0; s < S; ++s)
+    for (long m = 0; m < my_cols; ++m) {
+      std::complex<double>* c = &col_spec_[(s * my_cols + m) * ny_];
+      fftw_execute_dft(static_cast<fftw_plan>(col_forward_), reinterpret_cast<fftw_complex*>(c),
+                       reinterpret_cast<fftw_complex*>(column.data()));
+      std::copy(column.begin(), column.end(), c);
+    }
+
+  // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
+  const int first = first_, last = last_;
+  int reach = 0;  // the largest layer distance from a source to a computed layer
+  if (S) reach = std::max(last - sources.front(), sources.back() - first);
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
   const int R = reach + 1;
-  std::vector<double> P(static_cast<std::size_t>(mx) * R), Z(P.size()), KX(mx), KY(mx);
-  std::vector<std::complex<double>> phi(mx), az(mx);
+  std::vector<double> P(R), Z(R);
   const std::complex<double> I(0, 1);
-  for (int j = 0; j < ny_; ++j) {
-    const int n = j <= ny_ / 2 ? j : j - ny_;
-    for (int m = 0; m < mx; ++m) {
-      double* p = &P[static_cast<std::size_t>(m) * R];
-      double* z = &Z[static_cast<std::size_t>(m) * R];
-      KX[m] = 2 * kPi * m / lx_;
-      KY[m] = 2 * kPi * n / ly_ - KX[m] * shear_ / ly_;
-      if (m == nx_ / 2 || j == ny_ / 2) {  // Nyquist: no odd derivative there
-        std::fill(p, p + R, 0.0);
-        std::fill(z, z + R, 0.0);
-        continue;
-      }
+  const int F = planar_ ? 3 : 4;
+  const int fields[4] = {0, 1, planar_ ? 3 : 2, 3};  // a_z skipped in planar scenes
+  col_out_.assign(static_cast<std::size_t>(F) * L * my_cols * ny_, 0.0);
+  auto out = [&](int f, int a, long m) { return &col_out_[((static_cast<std::size_t>(f) * L + (a - first)) * my_cols + m) * ny_]; };
+  for (long ml = 0; ml < my_cols; ++ml) {
+    const long m = c0 + ml;
+    const double KX = 2 * kPi * m / lx_;
+    for (int j = 0; j < ny_; ++j) {
+      const int n = j <= ny_ / 2 ? j : j - ny_;
+      if (m == nx_ / 2 || j == ny_ / 2) continue;  // Nyquist: no odd derivative there (zeros)
+      const double KY = 2 * kPi * n / ly_ - KX * shear_ / ly_;
       // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
       const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
       const double scale = norm / (w * w);
-      const double k = std::hypot(KX[m], KY[m]);
+      const double k = std::hypot(KX, KY);
       if (k == 0) {
         for (int d = 0; d < R; ++d) {
-          kernels(0.0, d * h_[2], p[d], z[d]);
-          p[d] *= scale;
-          z[d] *= scale;
+          kernels(0.0, d * h_[2], P[d], Z[d]);
+          P[d] *= scale;
+          Z[d] *= scale;
         }
       } else {  // from the tables: k phi and a_z are smooth in k at every layer distance
         const double t = k * inv_dk_;
@@ -313,42 +438,95 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
         const double* lo = &kernel_table_[i * nz_ * 2];
         const double* hi = lo + nz_ * 2;
         for (int d = 0; d < R; ++d) {
-          p[d] = (lo[2 * d] + f * (hi[2 * d] - lo[2 * d])) / k * scale;
-          z[d] = (lo[2 * d + 1] + f * (hi[2 * d + 1] - lo[2 * d + 1])) * scale;
+          P[d] = (lo[2 * d] + f * (hi[2 * d] - lo[2 * d])) / k * scale;
+          Z[d] = (lo[2 * d + 1] + f * (hi[2 * d + 1] - lo[2 * d + 1])) * scale;
         }
       }
-    }
-    const std::size_t row = static_cast<std::size_t>(j) * mx;
-    for (int a = first; a <= last; ++a) {
-      std::fill(phi.begin(), phi.end(), 0.0);
-      std::fill(az.begin(), az.end(), 0.0);
-      for (const int b : sources) {
-        const std::complex<double>* s = spec_ + b * cplane + row;
-        const int d = std::abs(a - b);
-        const double sign = a >= b ? 1.0 : -1.0;
-        for (int m = 0; m < mx; ++m) {
-          phi[m] += P[static_cast<std::size_t>(m) * R + d] * s[m];
-          az[m] += sign * Z[static_cast<std::size_t>(m) * R + d] * s[m];
+      for (int a = first; a <= last; ++a) {
+        std::complex<double> phi = 0, az = 0;
+        for (int s = 0; s < S; ++s) {
+          const std::complex<double> src = col_spec_[(s * my_cols + ml) * ny_ + j];
+          const int d = std::abs(a - sources[s]);
+          phi += P[d] * src;
+          az += (a >= sources[s] ? 1.0 : -1.0) * Z[d] * src;
         }
-      }
-      const std::size_t at = a * cplane + row;
-      for (int m = 0; m < mx; ++m) {
-        out_[0][at + m] = -I * KX[m] * phi[m];
-        out_[1][at + m] = -I * KY[m] * phi[m];
-        out_[2][at + m] = az[m];
-        out_[3][at + m] = phi[m];
+        out(0, a, ml)[j] = -I * KX * phi;
+        out(1, a, ml)[j] = -I * KY * phi;
+        if (!planar_) out(2, a, ml)[j] = az;
+        out(F - 1, a, ml)[j] = phi;
       }
     }
   }
-  std::vector<double>* fields[4] = {&ax_, &ay_, &az_, &phi_};
-  for (int f = 0; f < 4; ++f) {
-    if (f == 2 && planar_) continue;
-    for (int a = first; a <= last; ++a) {
-      fftw_execute_dft_c2r(static_cast<fftw_plan>(backward_), reinterpret_cast<fftw_complex*>(out_[f] + a * cplane),
-                           real_ + a * plane);
-      std::copy(real_ + a * plane, real_ + (a + 1) * plane, fields[f]->begin() + a * plane);
+  // Back, one field at a time (a fourth of the staging): along y, to rows, along x, and each
+  // rank's box from the rows' owners.
+  std::vector<double> row_field(static_cast<std::size_t>(L) * my_rows * nx_);
+  for (int f = 0; f < F; ++f) {
+    for (int a = first; a <= last; ++a)
+      for (long m = 0; m < my_cols; ++m) {
+        std::complex<double>* c = out(f, a, m);
+        fftw_execute_dft(static_cast<fftw_plan>(col_backward_), reinterpret_cast<fftw_complex*>(c),
+                         reinterpret_cast<fftw_complex*>(column.data()));
+        std::copy(column.begin(), column.end(), c);
+      }
+    send_.clear();
+    for (int q = 0; q < nranks_; ++q) {
+      const std::size_t before = send_.size();
+      for (int a = first; a <= last; ++a)
+        for (long j = row_lo(q); j < row_lo(q + 1); ++j)
+          for (long m = 0; m < my_cols; ++m) {
+            const std::complex<double> v = out(f, a, m)[j];
+            send_.push_back(v.real());
+            send_.push_back(v.imag());
+          }
+      scount[q] = static_cast<int>(send_.size() - before);
+      rcount[q] = static_cast<int>(2 * L * my_rows * (col_lo(q + 1) - col_lo(q)));
     }
+    moved_bytes_ += exchange(send_, scount, recv_, rcount);
+    {
+      std::size_t at = 0;
+      for (int q = 0; q < nranks_; ++q)
+        for (int a = 0; a < L; ++a)
+          for (long j = 0; j < my_rows; ++j)
+            for (long m = col_lo(q); m < col_lo(q + 1); ++m, at += 2)
+              row_spec_[(static_cast<std::size_t>(a) * my_rows + j) * mx + m] = {recv_[at], recv_[at + 1]};
+    }
+    for (int a = 0; a < L; ++a)
+      for (long j = 0; j < my_rows; ++j)
+        fftw_execute_dft_c2r(static_cast<fftw_plan>(row_backward_),
+                             reinterpret_cast<fftw_complex*>(&row_spec_[(static_cast<std::size_t>(a) * my_rows + j) * mx]),
+                             &row_field[(a * my_rows + j) * nx_]);
+    send_.clear();
+    for (int q = 0; q < nranks_; ++q) {
+      const std::size_t before = send_.size();
+      for (int a = 0; a < L; ++a)
+        for (long j = r0; j < r1; ++j)
+          if (in_box(q, j)) {
+            const double* row = &row_field[(a * my_rows + (j - r0)) * nx_];
+            for (long c = 0, i = boxes_[4 * q]; c < boxes_[4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1) send_.push_back(row[i]);
+          }
+      scount[q] = static_cast<int>(send_.size() - before);
+      long n = 0;
+      for (long j = row_lo(q); j < row_lo(q + 1); ++j) n += in_box(rank_, j) ? 1 : 0;
+      rcount[q] = static_cast<int>(L * n * cols);
+    }
+    moved_bytes_ += exchange(send_, scount, recv_, rcount);
+    std::vector<double>& box = box_field_[fields[f]];
+    box.resize(static_cast<std::size_t>(L) * rows * cols);
+    std::size_t at = 0;
+    for (int q = 0; q < nranks_; ++q)
+      for (int a = 0; a < L; ++a)
+        for (long j = row_lo(q); j < row_lo(q + 1); ++j)
+          if (in_box(rank_, j)) {
+            std::copy(&recv_[at], &recv_[at] + cols, &box[(a * rows + box_row(rank_, j)) * cols]);
+            at += cols;
+          }
   }
+  double bytes = row_field.capacity() * sizeof(double);
+  for (const auto& v : box_field_) bytes += v.capacity() * sizeof(double);
+  bytes += (box_mass_.capacity() + row_mass_.capacity()) * sizeof(std::int64_t) + row_real_.capacity() * sizeof(double) +
+           (row_spec_.capacity() + col_spec_.capacity() + col_out_.capacity()) * sizeof(std::complex<double>) +
+           (send_.capacity() + recv_.capacity()) * sizeof(double);
+  mesh_bytes_ = std::max(mesh_bytes_, bytes);
   ++solves_;
   solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -456,7 +634,8 @@ void SelfGravity::force(Simulation& sim) {
   cached_step_ = sim.all_targets ? sim.step_count : -1;
   std::ostringstream os;
   os << "{\"solves\": " << solves_ << ", \"mesh_seconds\": " << solve_seconds_
-     << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"allreduce_bytes\": " << reduced_bytes_
+     << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"mesh_bytes_per_rank\": " << mesh_bytes_
+     << ", \"bytes_moved_per_solve\": " << moved_bytes_ / std::max(1L, solves_)
      << ", \"grid\": [" << nx_ << ", " << ny_
      << ", " << nz_ << "], \"split\": " << eps_ << ", \"short_range\": " << (short_ ? "true" : "false") << "}";
   sim.set_result("self_gravity", os.str());

@@ -39,11 +39,21 @@
 // with the short range, where the Gaussian's pull is a small part of Newton's, the errors of
 // the total are a fraction of these (docs/rings.md).
 //
-// In parallel every rank deposits its owned particles as integers (units of 2^-40 of the
-// heaviest particle's mass), one integer all-reduce sums the grid exactly (order-independent),
-// and every rank transforms the same grid with the same FFTW plan: forces are bitwise the same
-// on any rank count. The redundant transform is cheap at the grids one rank-pair machine runs
-// (docs/rings.md); a distributed FFT is what a large run would need (docs/scaling.md).
+// In parallel the mesh is distributed (a slab FFT written on FFTW's 1D transforms): rank r owns
+// a block of grid rows (y) in real space and a block of mode columns (x wave numbers) in Fourier
+// space. A solve:
+//   1. each rank deposits its owned particles as integers (units of 2^-40 of the heaviest
+//      particle's mass) into a box of the grid covering their stencils (a slab along y: its
+//      rows; along x: its columns, widened by the shear), and sends each row of the box to the
+//      row's owner, which adds them: integer sums, exact in any order;
+//   2. every owned row is transformed along x, the rows are transposed to mode columns
+//      (all-to-all), every column is transformed along y, the layers are coupled per mode, and
+//      the four fields go back the same way;
+//   3. each rank receives the field rows of its box from their owners.
+// Memory and transform work per rank fall as 1/P, and nothing is all-reduced but two scalars.
+// Why not FFTW's MPI transforms: their arithmetic (the plan's split of the 2D transform) may
+// differ with the process count, while here every 1D transform sees the same data through the
+// same plan on any rank count, so forces are bitwise the same on 1 or P ranks.
 //
 // Multiple time stepping (self_gravity.every = n): the mesh's smooth field is solved every n
 // steps and applied as n times its force (the impulse, r-RESPA form: symplectic). The short
@@ -61,6 +71,8 @@
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
+
+#include <mpi.h>
 
 namespace cassini {
 
@@ -111,14 +123,32 @@ class SelfGravity : public Module {
   double solve_seconds() const { return solve_seconds_; }
 
  private:
-  struct Stencil {  // cloud-in-cell: 2 x 2 (x 2) nodes and weights
+  struct Cell {  // where a point falls: the grid cell (unwrapped) and its CIC weights
+    long i, j;
+    int k0, k1;
+    double wx, wy, wz;
+  };
+  struct Stencil {  // cloud-in-cell: 2 x 2 (x 2) nodes of this rank's box and weights
     std::size_t node[8];
     double w[8];
     int n;
   };
+  Cell locate(const Vec3& x) const;
   Stencil stencil(const Vec3& x) const;
   double interpolate(const std::vector<double>& g, const Stencil& s) const;
   void kernels(double k, double d, double& phi, double& az) const;
+  // The box of grid nodes this rank deposits into and interpolates from (every rank's, after
+  // set_box): layers first_..last_ of the solve, rows box_[1] + [0, box_[3]), columns box_[0] +
+  // [0, box_[2]), both cyclic.
+  void set_box(const ParticleStore& p, bool whole);
+  bool in_box(int rank, long j) const;
+  long box_row(int rank, long j) const;
+  // Rows and mode columns owned by `rank`: [row_lo(rank), row_lo(rank + 1)).
+  long row_lo(int rank) const { return static_cast<long>(ny_) * rank / nranks_; }
+  long col_lo(int rank) const { return static_cast<long>(nx_ / 2 + 1) * rank / nranks_; }
+  // All-to-all of `send` (counts per rank, in doubles) into `recv`; returns the doubles this rank sent to others.
+  double exchange(const std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
+                  const std::vector<int>& rcount) const;
 
   int nx_, ny_, nz_;
   bool planar_, sheared_, short_;
@@ -139,18 +169,28 @@ class SelfGravity : public Module {
   double eps_;
   long every_;
   double shear_;  // wrapped offset S of the last solve
-  std::vector<double> ax_, ay_, az_, phi_;  // fields on the grid (real space)
-  std::vector<std::int64_t> mass_;          // deposit in fixed point
-  // FFTW buffers and plans (fftw_malloc'ed: the same alignment, hence the same code path, on
-  // every rank).
-  double* real_ = nullptr;
-  std::complex<double>* spec_ = nullptr;   // Sigma_k per layer
-  std::complex<double>* out_[4] = {};      // a_x, a_y, a_z, phi per layer
-  void* forward_ = nullptr;
-  void* backward_ = nullptr;
+  MPI_Comm comm_;
+  int rank_, nranks_;
+  int first_ = 0, last_ = -1;            // the layers of the last solve's fields
+  std::vector<long> boxes_;              // 4 per rank: column start, row start, columns, rows
+  std::vector<double> box_field_[4];     // a_x, a_y, a_z, phi on this rank's box
+  std::vector<std::int64_t> box_mass_;   // the deposit on this rank's box
+  std::vector<std::int64_t> row_mass_;   // the summed deposit on the owned rows
+  std::vector<double> row_real_;         // one row's real values (transform input and output)
+  std::vector<std::complex<double>> row_spec_;   // [layer][owned row][m], after the x transforms
+  std::vector<std::complex<double>> col_spec_;   // [layer][owned column][n], the sources' modes
+  std::vector<std::complex<double>> col_out_;    // [field][layer][owned column][n]
+  std::vector<double> send_, recv_;              // all-to-all staging
+  double mesh_bytes_ = 0;                        // this rank's mesh buffers at their largest
+  double moved_bytes_ = 0;                       // sent to other ranks, since the run started
+  // FFTW's 1D plans (FFTW_ESTIMATE | FFTW_UNALIGNED: a function of the sizes only, one code path
+  // for any array, the same on every rank and run): r2c / c2r along x, c2c along y.
+  void* row_forward_ = nullptr;
+  void* row_backward_ = nullptr;
+  void* col_forward_ = nullptr;
+  void* col_backward_ = nullptr;
   long solves_ = 0;
   double solve_seconds_ = 0, apply_seconds_ = 0;  // mesh solves; interpolation and short range
-  double reduced_bytes_ = 0;  // the mesh deposit's all-reduce payload, per rank, since the run started
   // The last force() solve's accelerations (per owned particle) and potential energy, valid
   // until the step ends or a rebuild reorders the particles.
   long cached_step_ = -1;
