@@ -585,25 +585,30 @@ void SelfGravity::post_rebuild(Simulation& sim) {
   if (short_) list_partners(sim.particles);
 }
 
+// Partners in list (id) order; the cost is the square root and the division per partner
+// (~6 ns here): ~150 partners within 35 m in cases/gravity-wakes, every step.
 Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi) const {
-  const Vec3& xi = p.x[i];
+  const double xi = p.x[i][0], yi = p.x[i][1], zi = p.x[i][2];
   const double r2max = reach_ * reach_, G = kGravitationalConstant, to_s = kTable / r2max;
-  Vec3 a = Vec3::Zero();
-  double u = 0;
+  const double* w_table = w_table_.data();
+  double ax = 0, ay = 0, az = 0, u = 0;
   for (std::uint32_t q = partner_start_[i]; q < partner_start_[i + 1]; ++q) {
     const std::uint32_t j = partner_[q];
-    const Vec3 d = p.x[j] - xi;
-    const double r2 = d.squaredNorm();
+    const double dx = p.x[j][0] - xi, dy = p.x[j][1] - yi, dz = p.x[j][2] - zi;
+    const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= r2max) continue;
     const double r = std::sqrt(r2), s = r2 * to_s;
     const std::size_t k = static_cast<std::size_t>(s);
     const double f = s - static_cast<double>(k);
-    const double w = w_table_[k] + f * (w_table_[k + 1] - w_table_[k]);
-    a += (G * p.mass[j] * w / (r2 * r)) * d;
+    const double w = w_table[k] + f * (w_table[k + 1] - w_table[k]);
+    const double c = G * p.mass[j] * w / (r2 * r);
+    ax += c * dx;
+    ay += c * dy;
+    az += c * dz;
     if (phi) u -= G * p.mass[j] * (erfc_table_[k] + f * (erfc_table_[k + 1] - erfc_table_[k])) / r;
   }
   if (phi) *phi = u;
-  return a;
+  return Vec3(ax, ay, az);
 }
 
 void SelfGravity::force(Simulation& sim) {
