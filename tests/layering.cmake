@@ -1,6 +1,8 @@
 # The layering rule of docs/developing.md: the core and the communication layer know no
 # physics, no output format and no application code (src/core, src/parallel include only
-# each other), and only src/physics/Registry.cpp names the concrete modules' kinds.
+# each other), only src/physics/Registry.cpp names the concrete modules' kinds, and the two
+# scenes' physics stay apart: src/physics/ring and src/physics/channel never include each other
+# (both may use src/physics/contact and the generic modules in src/physics).
 file(GLOB lower ${SRC}/core/* ${SRC}/parallel/*)
 foreach(f ${lower})
   file(STRINGS ${f} bad REGEX "#include \"(physics|io|app|cg)/")
@@ -16,5 +18,16 @@ foreach(f ${all})
       message(FATAL_ERROR "${f} lists module kinds; only src/physics/Registry.cpp may: ${named}")
     endif()
   endif()
+endforeach()
+foreach(pair "ring;channel" "channel;ring")
+  list(GET pair 0 from)
+  list(GET pair 1 to)
+  file(GLOB scene ${SRC}/physics/${from}/*)
+  foreach(f ${scene})
+    file(STRINGS ${f} bad REGEX "#include \"physics/${to}/")
+    if(bad)
+      message(FATAL_ERROR "${f} includes the other scene's physics: ${bad}")
+    endif()
+  endforeach()
 endforeach()
 message(STATUS "layering: ok")

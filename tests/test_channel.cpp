@@ -9,14 +9,14 @@
 
 #include "ChannelScene.hpp"
 #include "TestScene.hpp"
-#include "physics/ChannelWalls.hpp"
-#include "physics/ContactForces.hpp"
-#include "physics/ClogMonitor.hpp"
-#include "physics/DuctFlow.hpp"
-#include "physics/FlowField.hpp"
-#include "physics/Inlet.hpp"
-#include "physics/StokesDrag.hpp"
-#include "physics/VolumeFraction.hpp"
+#include "physics/channel/ChannelWalls.hpp"
+#include "physics/contact/ContactForces.hpp"
+#include "physics/channel/ClogMonitor.hpp"
+#include "physics/channel/DuctFlow.hpp"
+#include "physics/channel/FlowField.hpp"
+#include "physics/channel/Inlet.hpp"
+#include "physics/channel/StokesDrag.hpp"
+#include "physics/channel/VolumeFraction.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

@@ -6,7 +6,7 @@
 
 #include "ChannelScene.hpp"
 #include "TestScene.hpp"
-#include "physics/Inlet.hpp"
+#include "physics/channel/Inlet.hpp"
 
 
 using namespace cassini;

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

@@ -7,8 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/ContactForces.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/ContactForces.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/HillFrame.hpp"
-#include "physics/Moonlet.hpp"
+#include "physics/ring/HillFrame.hpp"
+#include "physics/ring/Moonlet.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/ContactForces.hpp"
+#include "physics/contact/ContactForces.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

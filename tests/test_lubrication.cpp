@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/Lubrication.hpp"
+#include "physics/channel/Lubrication.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

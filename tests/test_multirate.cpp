@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/ContactForces.hpp"
-#include "physics/MultiRateHill.hpp"
+#include "physics/contact/ContactForces.hpp"
+#include "physics/ring/MultiRateHill.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

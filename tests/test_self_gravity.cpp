@@ -1,4 +1,4 @@
-// Self-gravity (particle-mesh on the sheared box, physics/SelfGravity.hpp) against analytic
+// Self-gravity (particle-mesh on the sheared box, physics/ring/SelfGravity.hpp) against analytic
 // fields and an independent direct sum over the shear-periodic images. Run with 2 ranks: the
 // analytic checks run on rank 0 alone, the rank-count check on 1 and 2 ranks.
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
-#include "physics/SelfGravity.hpp"
+#include "physics/ring/SelfGravity.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

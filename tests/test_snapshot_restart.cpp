@@ -12,12 +12,12 @@
 #include <hdf5.h>
 
 #include "ChannelScene.hpp"
-#include "physics/DampingLimit.hpp"
+#include "physics/contact/DampingLimit.hpp"
 #include "TestScene.hpp"
-#include "physics/MultiRateHill.hpp"
+#include "physics/ring/MultiRateHill.hpp"
 #include "io/Snapshot.hpp"
-#include "physics/ClogMonitor.hpp"
-#include "physics/Inlet.hpp"
+#include "physics/channel/ClogMonitor.hpp"
+#include "physics/channel/Inlet.hpp"
 
 using namespace cassini;
 using namespace cassini::test;

@@ -25,7 +25,7 @@ import tomllib
 
 import numpy as np
 
-# The solver's constants (src/core/Config.hpp, src/physics/HillFrame.hpp).
+# The solver's constants (src/core/Config.hpp, src/physics/ring/HillFrame.hpp).
 G = 6.674e-11               # m^3 kg^-1 s^-2
 SATURN_MASS = 5.68e26       # kg: hill.saturn_mass's default
 ORBIT_RADIUS = 1.17e8       # m: hill.orbit_radius's default

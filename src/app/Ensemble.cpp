@@ -11,10 +11,10 @@
 #include "core/Interrupt.hpp"
 #include "core/Simulation.hpp"
 #include "io/RunOutput.hpp"
-#include "physics/ChannelWalls.hpp"
-#include "physics/ContactForces.hpp"
-#include "physics/FlowField.hpp"
-#include "physics/Inlet.hpp"
+#include "physics/channel/ChannelWalls.hpp"
+#include "physics/contact/ContactForces.hpp"
+#include "physics/channel/FlowField.hpp"
+#include "physics/channel/Inlet.hpp"
 
 namespace cassini {
 

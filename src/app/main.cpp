@@ -19,8 +19,8 @@
 #include "app/Ensemble.hpp"
 #include "io/RunOutput.hpp"
 #include "io/Snapshot.hpp"
-#include "physics/ChannelConfig.hpp"
-#include "physics/StokesDrag.hpp"
+#include "physics/channel/ChannelConfig.hpp"
+#include "physics/channel/StokesDrag.hpp"
 
 namespace fs = std::filesystem;
 using namespace cassini;

@@ -31,7 +31,7 @@ struct Species {
   // restitution = "bridges": each impact's e from its normal speed u, the law of frosty ice
   // (Bridges et al. 1984): e(u) = min(1, (u / v_c)^-0.234). 0: constant e.
   double v_c = 0;
-  // model = "hertz" (Hertz-Mindlin, physics/HertzMindlin.hpp): Young's modulus (Pa, > 0 marks
+  // model = "hertz" (Hertz-Mindlin, physics/contact/HertzMindlin.hpp): Young's modulus (Pa, > 0 marks
   // the model) and Poisson ratio; t_c is then the Hertz duration of the fastest expected impact
   // (impact_speed) between two of the smallest particles, which sets the time step.
   double youngs_modulus = 0, poisson_ratio = 0, impact_speed = 0;

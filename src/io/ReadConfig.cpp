@@ -5,8 +5,8 @@
 #include <numbers>
 
 #include "core/ModuleRegistry.hpp"
-#include "physics/HertzMindlin.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/HertzMindlin.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 namespace cassini {
 

@@ -14,10 +14,10 @@
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 #include "core/Version.hpp"
-#include "physics/ContactForces.hpp"
+#include "physics/contact/ContactForces.hpp"
 #include "io/IoFailure.hpp"
 #include "io/Snapshot.hpp"
-#include "physics/Moonlet.hpp"
+#include "physics/ring/Moonlet.hpp"
 
 namespace fs = std::filesystem;
 

@@ -22,7 +22,7 @@
 #include "io/ReadConfig.hpp"
 #include "io/SnapshotSchema.hpp"
 #include "core/Simulation.hpp"
-#include "physics/ContactForces.hpp"
+#include "physics/contact/ContactForces.hpp"
 
 namespace cassini {
 namespace {

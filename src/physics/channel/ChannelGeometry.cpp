@@ -1,4 +1,4 @@
-#include "physics/ChannelGeometry.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
 
 #include <algorithm>
 #include <cmath>

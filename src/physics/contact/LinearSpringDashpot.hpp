@@ -67,8 +67,8 @@
 #include "core/Config.hpp"
 #include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
-#include "physics/DampingLimit.hpp"
-#include "physics/HertzMindlin.hpp"
+#include "physics/contact/DampingLimit.hpp"
+#include "physics/contact/HertzMindlin.hpp"
 
 namespace cassini {
 

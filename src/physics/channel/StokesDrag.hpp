@@ -22,9 +22,9 @@
 
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
-#include "physics/ChannelConfig.hpp"
-#include "physics/FlowField.hpp"
-#include "physics/VolumeFraction.hpp"
+#include "physics/channel/ChannelConfig.hpp"
+#include "physics/channel/FlowField.hpp"
+#include "physics/channel/VolumeFraction.hpp"
 
 namespace cassini {
 

@@ -1,10 +1,10 @@
-#include "physics/StokesDrag.hpp"
+#include "physics/channel/StokesDrag.hpp"
 
 #include <cmath>
 #include <numbers>
 
 #include "core/Simulation.hpp"
-#include "physics/ChannelWalls.hpp"
+#include "physics/channel/ChannelWalls.hpp"
 
 namespace cassini {
 

@@ -7,8 +7,8 @@
 
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
-#include "physics/ChannelGeometry.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 namespace cassini {
 

@@ -10,9 +10,9 @@
 #include "core/NeighborList.hpp"
 #include "core/ParticleStore.hpp"
 #include "parallel/HaloExchange.hpp"
-#include "physics/ContactSprings.hpp"
-#include "physics/DampingLimit.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/ContactSprings.hpp"
+#include "physics/contact/DampingLimit.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 namespace cassini {
 

@@ -1,4 +1,4 @@
-#include "physics/Lubrication.hpp"
+#include "physics/channel/Lubrication.hpp"
 
 #include <algorithm>
 #include <cmath>

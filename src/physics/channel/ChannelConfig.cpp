@@ -1,4 +1,4 @@
-#include "physics/ChannelConfig.hpp"
+#include "physics/channel/ChannelConfig.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
-#include "physics/ChannelGeometry.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
 
 namespace cassini {
 namespace {

@@ -13,7 +13,7 @@
 #include <mpi.h>
 
 #include "core/ParticleStore.hpp"
-#include "physics/ChannelGeometry.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
 
 namespace cassini {
 

@@ -1,4 +1,4 @@
-#include "physics/ChannelWalls.hpp"
+#include "physics/channel/ChannelWalls.hpp"
 
 #include <bit>
 #include <sstream>
@@ -6,7 +6,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
-#include "physics/WallContact.hpp"
+#include "physics/contact/WallContact.hpp"
 
 namespace cassini {
 

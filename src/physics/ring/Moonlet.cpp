@@ -1,10 +1,10 @@
-#include "physics/Moonlet.hpp"
+#include "physics/ring/Moonlet.hpp"
 
 #include <cmath>
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
-#include "physics/WallContact.hpp"
+#include "physics/contact/WallContact.hpp"
 
 namespace cassini {
 

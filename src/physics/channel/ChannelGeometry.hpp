@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "physics/ChannelConfig.hpp"
+#include "physics/channel/ChannelConfig.hpp"
 
 namespace cassini {
 

@@ -1,10 +1,10 @@
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 #include <cmath>
 #include <numbers>
 
-#include "physics/DampingLimit.hpp"
-#include "physics/HertzMindlin.hpp"
+#include "physics/contact/DampingLimit.hpp"
+#include "physics/contact/HertzMindlin.hpp"
 
 namespace cassini {
 

@@ -12,7 +12,7 @@
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 namespace cassini {
 

@@ -10,8 +10,8 @@
 #include "core/Config.hpp"
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
-#include "physics/ChannelConfig.hpp"
-#include "physics/ChannelGeometry.hpp"
+#include "physics/channel/ChannelConfig.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
 
 namespace cassini {
 

@@ -1,4 +1,4 @@
-#include "physics/MultiRateHill.hpp"
+#include "physics/ring/MultiRateHill.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
-#include "physics/HillFrame.hpp"
-#include "physics/Moonlet.hpp"
+#include "physics/ring/HillFrame.hpp"
+#include "physics/ring/Moonlet.hpp"
 
 namespace cassini {
 

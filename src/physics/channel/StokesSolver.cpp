@@ -1,4 +1,4 @@
-#include "physics/StokesSolver.hpp"
+#include "physics/channel/StokesSolver.hpp"
 
 #include <array>
 #include <chrono>

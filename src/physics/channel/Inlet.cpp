@@ -1,4 +1,4 @@
-#include "physics/Inlet.hpp"
+#include "physics/channel/Inlet.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 
 #include "core/Initializer.hpp"
 #include "core/Simulation.hpp"
-#include "physics/ChannelWalls.hpp"
-#include "physics/StokesDrag.hpp"
+#include "physics/channel/ChannelWalls.hpp"
+#include "physics/channel/StokesDrag.hpp"
 
 namespace cassini {
 

@@ -1,4 +1,4 @@
-#include "physics/HillFrame.hpp"
+#include "physics/ring/HillFrame.hpp"
 
 #include <cmath>
 

@@ -8,8 +8,8 @@
 #include <cstdint>
 
 #include "core/ParticleStore.hpp"
-#include "physics/DampingLimit.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/DampingLimit.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 namespace cassini {
 

@@ -1,4 +1,4 @@
-#include "physics/VolumeFraction.hpp"
+#include "physics/channel/VolumeFraction.hpp"
 
 #include <algorithm>
 #include <cmath>

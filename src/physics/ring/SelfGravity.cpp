@@ -1,4 +1,4 @@
-#include "physics/SelfGravity.hpp"
+#include "physics/ring/SelfGravity.hpp"
 
 #include <algorithm>
 #include <array>

@@ -8,7 +8,7 @@
 
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
-#include "physics/LinearSpringDashpot.hpp"
+#include "physics/contact/LinearSpringDashpot.hpp"
 
 namespace cassini {
 

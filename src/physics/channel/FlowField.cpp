@@ -1,4 +1,4 @@
-#include "physics/FlowField.hpp"
+#include "physics/channel/FlowField.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,9 +9,9 @@
 
 #include "core/CaseFile.hpp"
 #include "io/Hdf5Handle.hpp"
-#include "physics/ChannelGeometry.hpp"
-#include "physics/DuctFlow.hpp"
-#include "physics/StokesSolver.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
+#include "physics/channel/DuctFlow.hpp"
+#include "physics/channel/StokesSolver.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-#include "physics/ClogMonitor.hpp"
+#include "physics/channel/ClogMonitor.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,10 +7,10 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
-#include "physics/ChannelConfig.hpp"
-#include "physics/ChannelGeometry.hpp"
-#include "physics/Inlet.hpp"
-#include "physics/StokesDrag.hpp"
+#include "physics/channel/ChannelConfig.hpp"
+#include "physics/channel/ChannelGeometry.hpp"
+#include "physics/channel/Inlet.hpp"
+#include "physics/channel/StokesDrag.hpp"
 
 namespace cassini {
 

@@ -1,4 +1,4 @@
-#include "physics/ContactForces.hpp"
+#include "physics/contact/ContactForces.hpp"
 
 #include <algorithm>
 #include <stdexcept>

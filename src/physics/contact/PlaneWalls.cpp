@@ -1,7 +1,7 @@
-#include "physics/PlaneWalls.hpp"
+#include "physics/contact/PlaneWalls.hpp"
 
 #include "core/Simulation.hpp"
-#include "physics/WallContact.hpp"
+#include "physics/contact/WallContact.hpp"
 
 namespace cassini {
 
