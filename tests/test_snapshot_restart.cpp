@@ -407,11 +407,8 @@ TEST(Snapshot, ModifiedLeesEdwardsRestartsBitwise) {
   }
 }
 
-TEST(Snapshot, SelfGravityRestartsBitwise) {
-  // The mesh and pair forces are recomputed from the positions at the solve steps (every 3rd
-  // here; the snapshot at step 500 falls between two): nothing beyond the particles and the
-  // forces they carry needs to travel.
-  const char* ring = R"(
+namespace {
+const char* kGravityRing = R"(
 seed = 4
 modules = ["contact", "hill", "self-gravity"]
 [domain]
@@ -440,7 +437,20 @@ velocity_sigma = 0.002
 n_c = 10
 end = 1.0e6
 )";
-  expect_restart_bitwise(ring);
+}  // namespace
+
+TEST(Snapshot, SelfGravityRestartsBitwise) {
+  // The mesh and pair forces are recomputed from the positions at the solve steps (every 3rd
+  // here; the snapshot at step 500 falls between two): nothing beyond the particles and the
+  // forces they carry needs to travel.
+  expect_restart_bitwise(kGravityRing);
+}
+
+TEST(Snapshot, SelfGravityUnderModifiedLeesEdwardsRestartsBitwise) {
+  // Two copies of the box, each with its own mesh field; LE1 drains and is fed clones of LE2.
+  std::string scene = kGravityRing;
+  scene.replace(scene.find("boundary = "), 0, "modified_lees_edwards = true\n");
+  expect_restart_bitwise(scene);
 }
 
 // A module's own per-particle column (ParticleStore::declare) needs no code of its own to

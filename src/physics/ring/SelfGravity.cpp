@@ -60,8 +60,6 @@ ModuleKind SelfGravity::kind() {
       f.fail("domain.boundary", "x \"periodic\" and y \"periodic\" or \"lees_edwards\" with module \"self-gravity\" (its mesh solve is periodic in the plane)");
     if (!c.planar && c.periodic_like(2))
       f.fail("domain.boundary", "z \"open\" or \"wall\" with module \"self-gravity\" (gravity is isolated in z: a ring has no vertical images)");
-    if (c.modified_lees_edwards)
-      f.fail("domain.modified_lees_edwards", "false with module \"self-gravity\" (the two copies would need one field each)");
     Settings s;
     const std::vector<double> grid = f.numbers(g + "grid");
     if (grid.size() != 3) f.fail(g + "grid", "[nx, ny, nz]: grid nodes along x, y and z");
@@ -153,7 +151,7 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
   comm_ = domain.comm;
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &nranks_);
-  boxes_.assign(4 * static_cast<std::size_t>(nranks_), 0);
+  copies_ = domain.fed_x ? 2 : 1;
   // Plans on scratch arrays; FFTW_UNALIGNED lets them run on any array of these sizes.
   const int mx = nx_ / 2 + 1;
   std::vector<double> r(nx_);
@@ -196,13 +194,13 @@ SelfGravity::Cell SelfGravity::locate(const Vec3& x) const {
 }
 
 bool SelfGravity::in_box(int rank, long j) const {
-  return static_cast<long>(wrap(j - boxes_[4 * rank + 1], ny_)) < boxes_[4 * rank + 3];
+  return static_cast<long>(wrap(j - boxes_[copy_][4 * rank + 1], ny_)) < boxes_[copy_][4 * rank + 3];
 }
-long SelfGravity::box_row(int rank, long j) const { return static_cast<long>(wrap(j - boxes_[4 * rank + 1], ny_)); }
+long SelfGravity::box_row(int rank, long j) const { return static_cast<long>(wrap(j - boxes_[copy_][4 * rank + 1], ny_)); }
 
-SelfGravity::Stencil SelfGravity::stencil(const Vec3& x) const {
+SelfGravity::Stencil SelfGravity::stencil(const Vec3& x, int copy) const {
   const Cell c = locate(x);
-  const long* b = &boxes_[4 * rank_];
+  const long* b = &boxes_[copy][4 * rank_];
   const std::size_t cols = b[2], rows = b[3];
   const std::size_t i0 = wrap(c.i - b[0], nx_), i1 = wrap(c.i + 1 - b[0], nx_);
   const std::size_t j0 = wrap(c.j - b[1], ny_), j1 = wrap(c.j + 1 - b[1], ny_);
@@ -225,24 +223,28 @@ double SelfGravity::interpolate(const std::vector<double>& g, const Stencil& s) 
   return r;
 }
 
-Vec3 SelfGravity::field(const Vec3& x) const {
-  const Stencil s = stencil(x);
-  return Vec3(interpolate(box_field_[0], s), interpolate(box_field_[1], s), planar_ ? 0.0 : interpolate(box_field_[2], s));
+Vec3 SelfGravity::field(const Vec3& x, int copy) const {
+  const Stencil s = stencil(x, copy);
+  const auto& f = box_field_[copy];
+  return Vec3(interpolate(f[0], s), interpolate(f[1], s), planar_ ? 0.0 : interpolate(f[2], s));
 }
 
-double SelfGravity::potential(const Vec3& x) const { return interpolate(box_field_[3], stencil(x)); }
+double SelfGravity::potential(const Vec3& x, int copy) const { return interpolate(box_field_[copy][3], stencil(x, copy)); }
 
-// This rank's box: the columns and rows its owned particles' stencils touch (the whole grid when
-// they wrap around or `whole`), gathered from every rank.
+// This rank's box for copy_: the columns and rows its owned particles' stencils touch (the
+// whole grid when they wrap around or `whole`), gathered from every rank.
 void SelfGravity::set_box(const ParticleStore& p, bool whole) {
   long lo[2] = {0, 0}, hi[2] = {-1, -1};
+  bool any = false;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (copy_of(p, i) != copy_) continue;
     const Cell c = locate(p.x[i]);
     const long at[2] = {c.i, c.j};
     for (int d = 0; d < 2; ++d) {
-      lo[d] = i ? std::min(lo[d], at[d]) : at[d];
-      hi[d] = i ? std::max(hi[d], at[d] + 1) : at[d] + 1;
+      lo[d] = any ? std::min(lo[d], at[d]) : at[d];
+      hi[d] = any ? std::max(hi[d], at[d] + 1) : at[d] + 1;
     }
+    any = true;
   }
   const long n[2] = {nx_, ny_};
   long mine[4];
@@ -256,7 +258,8 @@ void SelfGravity::set_box(const ParticleStore& p, bool whole) {
       mine[2 + d] = std::max(0L, width);
     }
   }
-  MPI_Allgather(mine, 4, MPI_LONG, boxes_.data(), 4, MPI_LONG, comm_);
+  boxes_[copy_].resize(4 * static_cast<std::size_t>(nranks_));
+  MPI_Allgather(mine, 4, MPI_LONG, boxes_[copy_].data(), 4, MPI_LONG, comm_);
 }
 
 double SelfGravity::exchange(const std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
@@ -305,15 +308,31 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   const int zlo = std::min(span[0], nz_ - 1), zhi = std::min(nz_ - 1, std::max(-span[1], zlo));
   first_ = every_layer ? 0 : std::max(0, zlo - 1);
   last_ = every_layer ? nz_ - 1 : std::min(nz_ - 1, zhi + 1);
+  for (copy_ = 0; copy_ < copies_; ++copy_) solve_copy(p, every_layer, unit, zlo, zhi);
+  double bytes = 0;
+  for (const auto& c : box_field_)
+    for (const auto& v : c) bytes += v.capacity() * sizeof(double);
+  bytes += (box_mass_.capacity() + row_mass_.capacity()) * sizeof(std::int64_t) + row_real_.capacity() * sizeof(double) +
+           (row_spec_.capacity() + col_spec_.capacity() + col_out_.capacity()) * sizeof(std::complex<double>) +
+           (send_.capacity() + recv_.capacity() + row_field_.capacity()) * sizeof(double);
+  mesh_bytes_ = std::max(mesh_bytes_, bytes);
+  ++solves_;
+  solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// One copy's field (copy_: all particles, or under modified Lees-Edwards boundaries those of
+// LE1 or LE2) on the layers first_..last_.
+void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double unit, int zlo, int zhi) {
   const int L = last_ - first_ + 1;
   set_box(p, every_layer);
-  const long* mine = &boxes_[4 * rank_];
+  const long* mine = &boxes_[copy_][4 * rank_];
   const std::size_t cols = mine[2], rows = mine[3];
 
   // 1. Deposit on the box, then to the rows' owners (as doubles: integers below 2^53 are exact).
   box_mass_.assign(static_cast<std::size_t>(L) * rows * cols, 0);
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const Stencil s = stencil(p.x[i]);
+    if (copy_of(p, i) != copy_) continue;
+    const Stencil s = stencil(p.x[i], copy_);
     for (int q = 0; q < s.n; ++q) box_mass_[s.node[q]] += std::llround(p.mass[i] * s.w[q] / unit);
   }
   const long r0 = row_lo(rank_), r1 = row_lo(rank_ + 1), my_rows = r1 - r0;
@@ -329,7 +348,7 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
         }
     scount[q] = static_cast<int>(send_.size() - before);
     long n = 0;
-    for (long j = r0; j < r1; ++j) n += in_box(q, j) ? boxes_[4 * q + 2] : 0;
+    for (long j = r0; j < r1; ++j) n += in_box(q, j) ? boxes_[copy_][4 * q + 2] : 0;
     rcount[q] = static_cast<int>(n * (zhi - zlo + 1));
   }
   moved_bytes_ += exchange(send_, scount, recv_, rcount);
@@ -342,7 +361,7 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
         for (long j = r0; j < r1; ++j)
           if (in_box(q, j)) {
             std::int64_t* row = &row_mass_[((b - zlo) * my_rows + (j - r0)) * nx_];
-            for (long c = 0, i = boxes_[4 * q]; c < boxes_[4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
+            for (long c = 0, i = boxes_[copy_][4 * q]; c < boxes_[copy_][4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
               row[i] += static_cast<std::int64_t>(recv_[at++]);
           }
   }
@@ -459,7 +478,8 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   }
   // Back, one field at a time (a fourth of the staging): along y, to rows, along x, and each
   // rank's box from the rows' owners.
-  std::vector<double> row_field(static_cast<std::size_t>(L) * my_rows * nx_);
+  std::vector<double>& row_field = row_field_;
+  row_field.resize(static_cast<std::size_t>(L) * my_rows * nx_);
   for (int f = 0; f < F; ++f) {
     for (int a = first; a <= last; ++a)
       for (long m = 0; m < my_cols; ++m) {
@@ -502,7 +522,7 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
         for (long j = r0; j < r1; ++j)
           if (in_box(q, j)) {
             const double* row = &row_field[(a * my_rows + (j - r0)) * nx_];
-            for (long c = 0, i = boxes_[4 * q]; c < boxes_[4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1) send_.push_back(row[i]);
+            for (long c = 0, i = boxes_[copy_][4 * q]; c < boxes_[copy_][4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1) send_.push_back(row[i]);
           }
       scount[q] = static_cast<int>(send_.size() - before);
       long n = 0;
@@ -510,7 +530,7 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
       rcount[q] = static_cast<int>(L * n * cols);
     }
     moved_bytes_ += exchange(send_, scount, recv_, rcount);
-    std::vector<double>& box = box_field_[fields[f]];
+    std::vector<double>& box = box_field_[copy_][fields[f]];
     box.resize(static_cast<std::size_t>(L) * rows * cols);
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)
@@ -521,14 +541,6 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
             at += cols;
           }
   }
-  double bytes = row_field.capacity() * sizeof(double);
-  for (const auto& v : box_field_) bytes += v.capacity() * sizeof(double);
-  bytes += (box_mass_.capacity() + row_mass_.capacity()) * sizeof(std::int64_t) + row_real_.capacity() * sizeof(double) +
-           (row_spec_.capacity() + col_spec_.capacity() + col_out_.capacity()) * sizeof(std::complex<double>) +
-           (send_.capacity() + recv_.capacity()) * sizeof(double);
-  mesh_bytes_ = std::max(mesh_bytes_, bytes);
-  ++solves_;
-  solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 // Each owned particle's partners within r_s + skin, owned or ghosts (binned in cells of at
@@ -573,7 +585,7 @@ void SelfGravity::list_partners(const ParticleStore& p) {
           const std::size_t cell = cell_of(x, y, z);
           for (std::uint32_t q = start[cell]; q < start[cell + 1]; ++q) {
             const std::uint32_t j = items[q];
-            if (j != i && (p.x[j] - p.x[i]).squaredNorm() < r2max) partner_.push_back(j);
+            if (j != i && copy_of(p, j) == copy_of(p, i) && (p.x[j] - p.x[i]).squaredNorm() < r2max) partner_.push_back(j);
           }
         }
     std::sort(partner_.begin() + first, partner_.end(), [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
@@ -628,10 +640,10 @@ void SelfGravity::force(Simulation& sim) {
     const Vec3 a_short = short_ ? short_range(p, i, mesh ? &near : nullptr) : Vec3(Vec3::Zero());
     p.f[i] += p.mass[i] * a_short;
     if (!mesh) continue;
-    const Vec3 a_mesh = field(p.x[i]);
+    const Vec3 a_mesh = field(p.x[i], copy_of(p, i));
     p.f[i] += weight * p.mass[i] * a_mesh;
     cached_accel_[i] = a_mesh + a_short;
-    u += 0.5 * p.mass[i] * (potential(p.x[i]) + near);
+    u += 0.5 * p.mass[i] * (potential(p.x[i], copy_of(p, i)) + near);
   }
   apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!mesh) return;
@@ -657,7 +669,7 @@ void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) c
   }
   const_cast<SelfGravity*>(this)->solve(sim, false);
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    F[i] += p.mass[i] * (short_ ? Vec3(field(p.x[i]) + short_range(p, i)) : field(p.x[i]));
+    F[i] += p.mass[i] * (short_ ? Vec3(field(p.x[i], copy_of(p, i)) + short_range(p, i)) : field(p.x[i], copy_of(p, i)));
 }
 
 double SelfGravity::potential_energy(const Simulation& sim) const {
@@ -668,7 +680,7 @@ double SelfGravity::potential_energy(const Simulation& sim) const {
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     double near = 0;
     if (short_) short_range(p, i, &near);
-    u += 0.5 * p.mass[i] * (potential(p.x[i]) + near);
+    u += 0.5 * p.mass[i] * (potential(p.x[i], copy_of(p, i)) + near);
   }
   return u;
 }

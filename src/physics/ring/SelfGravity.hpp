@@ -55,6 +55,14 @@
 // differ with the process count, while here every 1D transform sees the same data through the
 // same plan on any rank count, so forces are bitwise the same on 1 or P ranks.
 //
+// Modified Lees-Edwards boundaries (two copies of the box in the same coordinates: LE1, the main
+// box, and LE2, the moonlet-free feed): each copy's mass is deposited on its own mesh and pulls
+// its own particles only (two solves a step). LE2 is an ordinary self-gravitating sheared
+// patch. LE1 feels its own mass, with its own x images on the mesh; in the pairs, its own
+// particles and the LE2 material the halo shows it beyond its inflow faces (the ghosts it
+// touches), and nothing beyond its outflow faces, where only the mesh's smooth part of its
+// images remains. Both copies there hold the unperturbed ring, far from the moonlet.
+//
 // Multiple time stepping (self_gravity.every = n): the mesh's smooth field is solved every n
 // steps and applied as n times its force (the impulse, r-RESPA form: symplectic). The short
 // range is applied every step: it holds the stiff part (touching particles' full pull), and as
@@ -113,8 +121,9 @@ class SelfGravity : public Module {
   // potential() give its acceleration and potential at any point of the box (every_layer) or
   // in the layers holding particles and next to them (force()'s solves).
   void solve(const Simulation& sim, bool every_layer = true);
-  Vec3 field(const Vec3& x) const;
-  double potential(const Vec3& x) const;
+  // copy: under modified Lees-Edwards boundaries, 0 = LE1 (the main box), 1 = LE2 (the feed).
+  Vec3 field(const Vec3& x, int copy = 0) const;
+  double potential(const Vec3& x, int copy = 0) const;
   // The short-range acceleration of particle i (owned) from its partners within r_s, owned or
   // ghosts, and (if asked) its short-range potential: from the partners listed at the last rebuild.
   Vec3 short_range(const ParticleStore& p, std::size_t i, double* phi = nullptr) const;
@@ -134,12 +143,14 @@ class SelfGravity : public Module {
     int n;
   };
   Cell locate(const Vec3& x) const;
-  Stencil stencil(const Vec3& x) const;
+  Stencil stencil(const Vec3& x, int copy) const;
+  int copy_of(const ParticleStore& p, std::size_t i) const { return copies_ > 1 ? p.le_copy[i] : 0; }
+  void solve_copy(const ParticleStore& p, bool every_layer, double unit, int zlo, int zhi);
   double interpolate(const std::vector<double>& g, const Stencil& s) const;
   void kernels(double k, double d, double& phi, double& az) const;
-  // The box of grid nodes this rank deposits into and interpolates from (every rank's, after
-  // set_box): layers first_..last_ of the solve, rows box_[1] + [0, box_[3]), columns box_[0] +
-  // [0, box_[2]), both cyclic.
+  // The box of grid nodes this rank deposits into and interpolates from, per copy (every rank's,
+  // after set_box): layers first_..last_ of the solve, rows b[1] + [0, b[3]), columns b[0] +
+  // [0, b[2]), both cyclic, b = &boxes_[copy][4 * rank]. in_box and box_row read copy_'s.
   void set_box(const ParticleStore& p, bool whole);
   bool in_box(int rank, long j) const;
   long box_row(int rank, long j) const;
@@ -172,8 +183,10 @@ class SelfGravity : public Module {
   MPI_Comm comm_;
   int rank_, nranks_;
   int first_ = 0, last_ = -1;            // the layers of the last solve's fields
-  std::vector<long> boxes_;              // 4 per rank: column start, row start, columns, rows
-  std::vector<double> box_field_[4];     // a_x, a_y, a_z, phi on this rank's box
+  int copies_ = 1, copy_ = 0;            // fields solved (2 under modified Lees-Edwards), the one in hand
+  std::vector<long> boxes_[2];           // per copy, 4 per rank: column start, row start, columns, rows
+  std::vector<double> box_field_[2][4];  // per copy: a_x, a_y, a_z, phi on this rank's box
+  std::vector<double> row_field_;        // one field on the owned rows
   std::vector<std::int64_t> box_mass_;   // the deposit on this rank's box
   std::vector<std::int64_t> row_mass_;   // the summed deposit on the owned rows
   std::vector<double> row_real_;         // one row's real values (transform input and output)
