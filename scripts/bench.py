@@ -5,6 +5,10 @@ from cassini_tools import Run
 
 REPEATS = int(sys.argv[1]) if __name__ == "__main__" and len(sys.argv) > 1 else 3
 BASE = os.environ.get("CASSINI_BASE")  # an older binary to time beside build/cassini
+# LAMMPS built from Debian's source with cassini's flags (scripts/lammps-source; scripts/bench
+# sets it): timed beside Debian's binary, "src" columns. LAMMPS_SRC_SUFFIX="omp" adds -sf omp -pk omp 1.
+LAMMPS_SRC = os.environ.get("LAMMPS_SRC")
+SRC_ARGS = ["-sf", "omp", "-pk", "omp", "1"] if os.environ.get("LAMMPS_SRC_SUFFIX") == "omp" else []
 STEPS = 1000
 LAMMPS_IN = os.path.abspath(os.path.join(os.path.dirname(__file__), "../../shared/peers/lammps/in.gas"))
 if not os.path.exists(LAMMPS_IN):
@@ -90,9 +94,9 @@ def run_cassini(n, friction, ranks, tmp, binary="build/cassini"):
     return s["particle_steps_per_second"] / ranks, peak_bytes(), stages
 
 
-def run_lammps(n, friction, ranks):
+def run_lammps(n, friction, ranks, binary="lmp", extra=()):
     nx, ny, nz = SIZES[n]
-    cmd, peak_bytes = timed(ranks, ["lmp", "-in", LAMMPS_IN, "-log", "none", "-screen", "none", "-var", "nx", str(nx),
+    cmd, peak_bytes = timed(ranks, [binary, *extra, "-in", LAMMPS_IN, "-log", "none", "-screen", "none", "-var", "nx", str(nx),
                                     "-var", "ny", str(ny), "-var", "nz", str(nz), "-var", "friction", str(friction)])
     # -screen none hides the loop time; read it from the log instead.
     with tempfile.TemporaryDirectory() as d:
@@ -120,12 +124,14 @@ def main():
         for n in (50000, 200000):
             for friction in (0, 1):
                 for ranks in (1, 2):
-                    c, l, b = [], [], []
+                    c, l, b, ls_src = [], [], [], []
                     for _ in range(REPEATS):  # back to back, so both see the same machine load
                         if BASE:
                             b.append(run_cassini(n, friction, ranks, tmp, BASE)[0])
                         c.append(run_cassini(n, friction, ranks, tmp))
                         l.append(run_lammps(n, friction, ranks))
+                        if LAMMPS_SRC:
+                            ls_src.append(run_lammps(n, friction, ranks, LAMMPS_SRC, SRC_ARGS))
                     cs, cm = statistics.median(x[0] for x in c), statistics.median(x[1] for x in c)
                     ls, lm = statistics.median(x[0] for x in l), statistics.median(x[1] for x in l)
                     cnet = (cm - base[("c", ranks, friction)]) / (n - 1000)
@@ -133,7 +139,10 @@ def main():
                     print(f"{n:>7} {0.5 * friction:>4} {ranks:>5} | {cs:>22.3e} {cm / n:>9.0f} {cnet:>5.0f} | "
                           f"{ls:>21.3e} {lm / n:>9.0f} {lnet:>5.0f} | {cs / ls:.2f}"
                           + (f" | base {statistics.median(b):.3e}, ratio {statistics.median(b) / ls:.2f}, new/base "
-                             f"{cs / statistics.median(b):.3f}" if b else ""), flush=True)
+                             f"{cs / statistics.median(b):.3f}" if b else "")
+                          + (f" | LAMMPS src {statistics.median(x[0] for x in ls_src):.3e} p-steps/s/core, "
+                             f"{statistics.median(x[1] for x in ls_src) / n:.0f} B/p gross, ratio "
+                             f"{cs / statistics.median(x[0] for x in ls_src):.2f}" if ls_src else ""), flush=True)
                     if ranks == 1:
                         ratios1.append(cs / ls)
                         single = (n, friction, cs, ls)
