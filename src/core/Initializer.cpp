@@ -151,59 +151,73 @@ std::vector<Candidate> random_positions(const Config& cfg, long n, Random& rng) 
   return out;
 }
 
-std::vector<Candidate> lattice_positions(const Config& cfg, long n, Random& rng) {
-  const Species& s = cfg.species[cfg.init_species];
-  Vec3 lo, hi;
-  centre_bounds(cfg, lo, hi);
-  const int dims = cfg.planar ? 2 : 3;
-  Vec3 span = hi - lo;
-  // Periodic axes: sites at lo + (k + 1/2) L/n; walled axes: the centre range edge to edge.
-  double volume = 1;
-  for (int d = 0; d < dims; ++d) volume *= (cfg.periodic_like(d) ? span[d] : span[d] + 2 * s.radius_max);
-  double spacing = std::pow(volume / n, 1.0 / dims);
-  int m[3] = {1, 1, 1};
-  for (int iter = 0; iter < 2000; ++iter, spacing *= 0.995) {
-    long sites = 1;
-    for (int d = 0; d < dims; ++d) {
-      const double len = cfg.periodic_like(d) ? span[d] : span[d] + 2 * s.radius_max;
-      m[d] = std::max(1, static_cast<int>(len / spacing));
-      sites *= m[d];
+// A simple-cubic lattice whose site k is drawn from the stream `draws_per_site * k` draws in,
+// so that a rank can place its own sites without drawing everyone else's.
+class Lattice {
+ public:
+  Lattice(const Config& cfg, long n) : cfg_(cfg), s_(cfg.species[cfg.init_species]), dims_(cfg.planar ? 2 : 3) {
+    Vec3 hi;
+    centre_bounds(cfg, lo_, hi);
+    const Vec3 span = hi - lo_;
+    // Periodic axes: sites at lo + (k + 1/2) L/n; walled axes: the centre range edge to edge.
+    double len[3] = {0, 0, 0}, volume = 1;
+    for (int d = 0; d < dims_; ++d) volume *= len[d] = cfg.periodic_like(d) ? span[d] : span[d] + 2 * s_.radius_max;
+    double spacing = std::pow(volume / n, 1.0 / dims_);
+    for (int iter = 0; iter < 2000; ++iter, spacing *= 0.995) {
+      long sites = 1;
+      for (int d = 0; d < dims_; ++d) sites *= m_[d] = std::max(1, static_cast<int>(len[d] / spacing));
+      if (sites >= n) break;
     }
-    if (sites >= n) break;
-  }
-  Vec3 gap;
-  for (int d = 0; d < 3; ++d) {
-    const double len = d < dims ? (cfg.periodic_like(d) ? span[d] : span[d] + 2 * s.radius_max) : 0;
-    gap[d] = d < dims ? len / m[d] : 0;
-    if (d < dims && gap[d] < 2 * s.radius_max)
-      fail(cfg, cfg.count > 0 ? "particles.count" : "particles.volume_fraction",
-           "expected a count whose simple-cubic lattice fits the domain (site spacing " + std::to_string(gap[d]) +
-               " < diameter " + std::to_string(2 * s.radius_max) + ")");
-  }
-  std::vector<Candidate> out;
-  for (long k = 0; k < n; ++k) {
-    const long ix = k % m[0], iy = (k / m[0]) % m[1], iz = k / (long(m[0]) * m[1]);
-    Vec3 x;
-    const long idx[3] = {ix, iy, iz};
-    for (int d = 0; d < 3; ++d) {
-      if (d >= dims) { x[d] = lo[d]; continue; }
-      const double base = cfg.periodic_like(d) ? lo[d] : lo[d] - s.radius_max;
-      x[d] = base + (idx[d] + 0.5) * gap[d];
-      x[d] += cfg.lattice_jitter * 0.5 * (gap[d] - 2 * s.radius_max) * rng.uniform(-1, 1);
+    for (int d = 0; d < dims_; ++d) {
+      gap_[d] = len[d] / m_[d];
+      if (gap_[d] < 2 * s_.radius_max)
+        fail(cfg, cfg.count > 0 ? "particles.count" : "particles.volume_fraction",
+             "expected a count whose simple-cubic lattice fits the domain (site spacing " + std::to_string(gap_[d]) +
+                 " < diameter " + std::to_string(2 * s_.radius_max) + ")");
     }
-    out.push_back({x, s.radius_max == s.radius_min ? s.radius_min : draw_radius(s, rng)});
   }
-  return out;
-}
+  // One jitter draw per axis, and one for the radius of a size distribution.
+  long draws_per_site() const { return dims_ + (s_.radius_max == s_.radius_min ? 0 : 1); }
+  Candidate site(long k, Random& rng) const {
+    const long idx[3] = {k % m_[0], (k / m_[0]) % m_[1], k / (long(m_[0]) * m_[1])};
+    Vec3 x = lo_;
+    for (int d = 0; d < dims_; ++d) {
+      const double base = cfg_.periodic_like(d) ? lo_[d] : lo_[d] - s_.radius_max;
+      x[d] = base + (idx[d] + 0.5) * gap_[d];
+      x[d] += cfg_.lattice_jitter * 0.5 * (gap_[d] - 2 * s_.radius_max) * rng.uniform(-1, 1);
+    }
+    return {x, s_.radius_max == s_.radius_min ? s_.radius_min : draw_radius(s_, rng)};
+  }
+
+ private:
+  const Config& cfg_;
+  const Species& s_;
+  int dims_;
+  Vec3 lo_;
+  double gap_[3] = {0, 0, 0};
+  int m_[3] = {1, 1, 1};
+};
+
+// A particle of the initial sequence that this rank keeps.
+struct Drawn {
+  long k;  // place in the sequence
+  Candidate c;
+  Vec3 v;
+  int species;
+};
 
 }  // namespace
 
 void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore& p) {
-  Random rng(cfg.seed);
-  std::vector<Candidate> cands;
-  std::vector<Vec3> velocities;
-  std::vector<int> species;
   if (cfg.init == "none") return;
+  auto wrapped = [&](Vec3 x) {  // periodic axes: into the box
+    for (int d = 0; d < 3; ++d)
+      if (cfg.periodic_like(d)) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
+    return x;
+  };
+  auto mine = [&](const Vec3& x) { return dom.owner(wrapped(x)) == dom.rank; };
+  std::vector<Drawn> own;
+  long N = 0;  // particles in the sequence, on every rank
   if (cfg.init == "file") {
     if (!std::filesystem::exists(cfg.init_file))
       throw ConfigError(cfg.source + ": key 'particles.file': no such file '" + cfg.init_file + "'");
@@ -252,9 +266,8 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
                             std::to_string(cfg.species.size() - 1) + "]");
         sp = int(k);
       }
-      cands.push_back({x, a});
-      velocities.push_back(v);
-      species.push_back(sp);
+      if (mine(x)) own.push_back({N, {x, a}, v, sp});
+      ++N;
     }
   } else {
     const long n = resolve_count(cfg);
@@ -269,32 +282,45 @@ void place_particles(const Config& cfg, const Decomposition& dom, ParticleStore&
          << " GB (~1 kB each), more than this machine's " << ram / 1e9 << " GB";
       throw ConfigError(os.str());
     }
-    cands = cfg.init == "random" ? random_positions(cfg, n, rng) : lattice_positions(cfg, n, rng);
-    for (long k = 0; k < n; ++k) {
+    Random rng(cfg.seed);
+    if (cfg.init == "random") {
+      const std::vector<Candidate> all = random_positions(cfg, n, rng);
+      for (long k = 0; k < n; ++k)
+        if (mine(all[k].x)) own.push_back({k, all[k], Vec3::Zero(), cfg.init_species});
+    } else {
+      const Lattice lattice(cfg, n);
+      for (long k = 0; k < n; ++k) {
+        Random at = rng;
+        at.skip(k * lattice.draws_per_site());
+        const Candidate c = lattice.site(k, at);
+        if (mine(c.x)) own.push_back({k, c, Vec3::Zero(), cfg.init_species});
+      }
+      rng.skip(n * lattice.draws_per_site());
+    }
+    N = n;
+    const int dims = cfg.planar ? 2 : 3;  // velocities follow the positions in the stream, 2 draws per axis
+    for (Drawn& q : own) {
+      Random at = rng;
+      at.skip(q.k * 2 * dims);
       Vec3 v = cfg.velocity_mean;
-      const double flow = cfg.shear_flow ? cfg.shear_rate * cands[k].x[1] : 0.0;  // imposed shear v_x = gamma_dot y
+      const double flow = cfg.shear_flow ? cfg.shear_rate * q.c.x[1] : 0.0;  // imposed shear v_x = gamma_dot y
       v[0] += flow;
       const double sigma = cfg.velocity_sigma + cfg.dispersion_fraction * std::abs(flow);
-      for (int d = 0; d < (cfg.planar ? 2 : 3); ++d) v[d] += sigma * rng.gaussian();
+      for (int d = 0; d < dims; ++d) v[d] += sigma * at.gaussian();
       if (cfg.planar) v[2] = 0;
-      velocities.push_back(v);
-      species.push_back(cfg.init_species);
+      q.v = v;
     }
   }
   // Modified Lees-Edwards boundaries: the same ring twice, LE1 (ids k) without what lies inside
   // the moonlet, and LE2 (ids N + k) whole.
-  const std::size_t N = cands.size();
   const double moon = cfg.obstacle_radius > 0 ? cfg.obstacle_radius : -1;
   for (int copy = 0; copy < (cfg.modified_lees_edwards ? 2 : 1); ++copy)
-    for (std::size_t k = 0; k < N; ++k) {
-      Vec3 x = cands[k].x;
-      for (int d = 0; d < 3; ++d)  // periodic axes: wrap into the box
-        if (cfg.periodic_like(d)) x[d] -= (cfg.hi[d] - cfg.lo[d]) * std::floor((x[d] - cfg.lo[d]) / (cfg.hi[d] - cfg.lo[d]));
-      if (dom.owner(x) != dom.rank) continue;
-      const double a = cands[k].a;
+    for (const Drawn& q : own) {
+      const Vec3 x = wrapped(q.c.x);
+      const double a = q.c.a;
       if (cfg.modified_lees_edwards && copy == 0 && moon > 0 && x.norm() < moon + a) continue;
-      const double m = cfg.species[species[k]].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
-      p.add(static_cast<std::int64_t>(copy * N + k), species[k], a, m, x, velocities[k]);
+      const double m = cfg.species[q.species].density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
+      p.add(static_cast<std::int64_t>(copy * N + q.k), q.species, a, m, x, q.v);
       if (p.copies) p.le_copy.back() = static_cast<std::uint8_t>(copy);
     }
   p.nlocal = p.size();

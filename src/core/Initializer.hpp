@@ -1,7 +1,10 @@
 #pragma once
 // Initial particles: random non-overlapping, simple-cubic lattice, or read from a text file.
-// Every rank generates the same full set from the case's seed and keeps the particles in its
-// own slab, so the initial state does not depend on the rank count.
+// Every rank walks the same sequence of particles drawn from the case's seed and keeps those in
+// its own slab, so the initial state does not depend on the rank count. Lattice and file starts
+// hold only the rank's own particles (a lattice site's draws are reached by skipping the stream
+// ahead); random sequential addition needs every earlier particle to place the next, so it holds
+// all N positions (32 bytes each) while it places them, then keeps its own.
 #include <cstdint>
 
 #include "core/Config.hpp"
@@ -30,6 +33,7 @@ class Random {
     return scramble(z);
   }
   double uniform() { return (next() >> 11) * 0x1.0p-53; }  // [0, 1)
+  void skip(std::uint64_t draws) { s_ += draws * 0x9E3779B97F4A7C15ull; }  // as `draws` calls of next()
   double uniform(double a, double b) { return a + (b - a) * uniform(); }
   double gaussian();
 

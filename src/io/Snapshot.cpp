@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -436,6 +437,67 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
   return final_name;
 }
 
+namespace {
+
+// Contact springs: each rank reads a block of rows and sends each spring to the rank that read
+// its owner particle (particle rows are in id order, so rank r's block starts at id first[r]);
+// migration then carries it on with its particle. No rank holds more than its share.
+std::vector<HistoryEntry> read_springs(const SnapshotReader& in, const std::vector<double>& my_ids,
+                                       const Decomposition& dom) {
+  const int P = dom.nranks;
+  const hsize_t M = in.extent("contacts/owner", 0);
+  const hsize_t lo = M * dom.rank / P, n = M * (dom.rank + 1) / P - lo;
+  std::vector<std::int64_t> owner(n), partner(n);
+  std::vector<double> xi(3 * n);
+  in.read("contacts/owner", H5T_NATIVE_INT64, lo, n, 1, owner.data(), false);
+  in.read("contacts/partner", H5T_NATIVE_INT64, lo, n, 1, partner.data(), false);
+  in.read("contacts/xi", H5T_NATIVE_DOUBLE, lo, n, 3, xi.data(), false);
+  // Impact speeds (Bridges restitution) since they were stored; older snapshots have none and
+  // their contacts take their present approach speed (ContactForces::force).
+  std::vector<double> impact(n, 0.0);
+  if (in.has("contacts/impact_speed")) in.read("contacts/impact_speed", H5T_NATIVE_DOUBLE, lo, n, 1, impact.data(), false);
+  std::vector<double> roll(3 * n, 0.0);  // rolling-resistance torque springs, likewise
+  if (in.has("contacts/roll")) in.read("contacts/roll", H5T_NATIVE_DOUBLE, lo, n, 3, roll.data(), false);
+
+  // The first id of each rank's particle block (an empty block takes the next one's).
+  const std::int64_t none = std::numeric_limits<std::int64_t>::max();
+  const std::int64_t mine = my_ids.empty() ? none : bits_id(my_ids.front());
+  std::vector<std::int64_t> first(P);
+  MPI_Allgather(&mine, 1, MPI_INT64_T, first.data(), 1, MPI_INT64_T, dom.comm);
+  for (int r = P - 2; r >= 0; --r) first[r] = std::min(first[r], first[r + 1]);
+  constexpr int kWidth = 9;  // owner, partner (as bits), xi, impact, roll
+  std::vector<std::vector<double>> out(P);
+  for (hsize_t k = 0; k < n; ++k) {
+    const int r = std::max<int>(0, int(std::upper_bound(first.begin(), first.end(), owner[k]) - first.begin()) - 1);
+    const double row[kWidth] = {id_bits(owner[k]), id_bits(partner[k]), xi[3 * k], xi[3 * k + 1], xi[3 * k + 2],
+                                impact[k], roll[3 * k], roll[3 * k + 1], roll[3 * k + 2]};
+    out[r].insert(out[r].end(), row, row + kWidth);
+  }
+  std::vector<int> sc(P), rc(P), sd(P), rd(P);
+  std::vector<double> sendbuf;
+  for (int r = 0; r < P; ++r) {
+    sc[r] = int(out[r].size());
+    sd[r] = int(sendbuf.size());
+    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
+  }
+  MPI_Alltoall(sc.data(), 1, MPI_INT, rc.data(), 1, MPI_INT, dom.comm);
+  int total = 0;
+  for (int r = 0; r < P; ++r) { rd[r] = total; total += rc[r]; }
+  std::vector<double> got(total);
+  MPI_Alltoallv(sendbuf.data(), sc.data(), sd.data(), MPI_DOUBLE, got.data(), rc.data(), rd.data(), MPI_DOUBLE, dom.comm);
+  std::vector<std::int64_t> held(my_ids.size());  // ascending: the rows are in id order
+  for (std::size_t k = 0; k < my_ids.size(); ++k) held[k] = bits_id(my_ids[k]);
+  std::vector<HistoryEntry> springs;
+  springs.reserve(got.size() / kWidth);
+  for (std::size_t o = 0; o < got.size(); o += kWidth)
+    if (std::binary_search(held.begin(), held.end(), bits_id(got[o])))  // a spring of a particle not in the file: dropped
+      springs.push_back({bits_id(got[o]), bits_id(got[o + 1]), Vec3(got[o + 2], got[o + 3], got[o + 4]), got[o + 5],
+                       Vec3(got[o + 6], got[o + 7], got[o + 8])});
+  return springs;
+}
+
+}  // namespace
+
 void read_snapshot(Simulation& sim, const std::string& path) {
   const Decomposition& dom = sim.domain;
   ParticleStore& p = sim.particles;
@@ -482,26 +544,7 @@ void read_snapshot(Simulation& sim, const std::string& path) {
                              in.number("parameters/time_offset_dt", 2)};
     std::int64_t step = 0;
     in.read("parameters/step", H5T_NATIVE_INT64, 0, 1, 1, &step, false);
-    // Contact springs: everyone reads all and keeps those of its particles.
-    const hsize_t M = in.extent("contacts/owner", 0);
-    std::vector<std::int64_t> owner(M), partner(M);
-    std::vector<double> xi(3 * M);
-    in.read("contacts/owner", H5T_NATIVE_INT64, 0, M, 1, owner.data(), false);
-    in.read("contacts/partner", H5T_NATIVE_INT64, 0, M, 1, partner.data(), false);
-    in.read("contacts/xi", H5T_NATIVE_DOUBLE, 0, M, 3, xi.data(), false);
-    // Impact speeds (Bridges restitution) since they were stored; older snapshots have none and
-    // their contacts take their present approach speed (ContactForces::force).
-    std::vector<double> impact(M, 0.0);
-    if (in.has("contacts/impact_speed")) in.read("contacts/impact_speed", H5T_NATIVE_DOUBLE, 0, M, 1, impact.data(), false);
-    std::vector<double> roll(3 * M, 0.0);  // rolling-resistance torque springs, likewise
-    if (in.has("contacts/roll")) in.read("contacts/roll", H5T_NATIVE_DOUBLE, 0, M, 3, roll.data(), false);
-    std::vector<std::int64_t> mine(p.id.begin(), p.id.end());
-    std::sort(mine.begin(), mine.end());
-    sim.history.clear();
-    for (hsize_t k = 0; k < M; ++k)
-      if (std::binary_search(mine.begin(), mine.end(), owner[k]))
-        sim.history.push_back({owner[k], partner[k], Vec3(xi[3 * k], xi[3 * k + 1], xi[3 * k + 2]), impact[k],
-                               Vec3(roll[3 * k], roll[3 * k + 1], roll[3 * k + 2])});
+    sim.history = read_springs(in, ids, dom);
     if (std::abs(state[2] - sim.dt) > 1e-12 * sim.dt)
       throw ConfigError(path + ": snapshot dt " + std::to_string(state[2]) + " differs from the case's dt " +
                         std::to_string(sim.dt) + " (a restart must keep the time step)");
