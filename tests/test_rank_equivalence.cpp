@@ -157,3 +157,45 @@ TEST(RankEquivalence, MetisRebalancedEveryRebuildKeepsTrajectoriesBitwise) {
   std::printf("METIS cells, balanced every rebuild: imbalance %.3f\n", balanced);
   EXPECT_LT(balanced, 1.15);
 }
+
+// The ghost update of a few changed particles (the multi-rate integrator's wake-ups: one round
+// of neighbour messages, no collective) leaves every ghost as the full update would.
+TEST(GhostUpdate, ChangedOnlyGivesTheFullUpdatesGhosts) {
+  auto sim = make_sim(kScene, {});
+  sim->setup();
+  for (int s = 0; s < 50; ++s) sim->step();
+  ParticleStore& p = sim->particles;
+  sim->halo.update_ghosts(p);  // the step's last half kick came after its ghost update
+  auto ghosts = [&] {
+    std::vector<double> g;
+    for (std::size_t j = p.nlocal; j < p.size(); ++j) {
+      g.insert(g.end(), p.x[j].data(), p.x[j].data() + 3);
+      g.insert(g.end(), p.v[j].data(), p.v[j].data() + 3);
+      g.insert(g.end(), p.omega[j].data(), p.omega[j].data() + 3);
+    }
+    return g;
+  };
+  std::vector<std::uint32_t> changed;
+  for (std::size_t i = 0; i < p.nlocal; i += 3) {
+    changed.push_back(static_cast<std::uint32_t>(i));
+    p.x[i] += Vec3(1e-6, -2e-6, 3e-6);
+    p.v[i] += Vec3(0.1, 0.2, -0.3);
+    p.omega[i] += Vec3(5.0, 0.0, -5.0);
+  }
+  const std::vector<double> before = ghosts();
+  sim->halo.update_ghosts_of(p, changed);
+  const std::vector<double> sparse = ghosts();
+  sim->halo.update_ghosts(p);
+  const std::vector<double> full = ghosts();
+  long moved = 0, local_moved = 0, wrong = 0;
+  for (std::size_t k = 0; k < full.size(); ++k) {
+    local_moved += before[k] != full[k];
+    wrong += sparse[k] != full[k];
+  }
+  MPI_Allreduce(&local_moved, &moved, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(moved, 100) << "the changes must reach ghosts, or the test shows nothing";
+  EXPECT_EQ(wrong, 0) << "ghost values differing from the full update";
+  // Nothing changed: nothing moves (and every rank still takes part).
+  sim->halo.update_ghosts_of(p, {});
+  EXPECT_EQ(ghosts(), full);
+}

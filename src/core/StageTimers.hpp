@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cstdint>
 
+#include "parallel/MpiCounters.hpp"
+
 namespace cassini {
 
 struct StageTimers {
@@ -24,6 +26,8 @@ struct StageTimers {
   // Starts counting afresh (the step loop only: not set-up, not a previous run).
   void reset() {
     ticks_.fill(0);
+    collectives_.fill(0);
+    mpi0_ = mpi_counters::now();
     tick0_ = now();
     clock0_ = std::chrono::steady_clock::now();
   }
@@ -37,15 +41,35 @@ struct StageTimers {
     return s;
   }
 
+  // MPI collectives per stage since reset() (which stage synchronises the ranks, and how often).
+  const std::array<std::int64_t, kStages>& collectives() const { return collectives_; }
+  // MPI calls and bytes by kind since reset().
+  mpi_counters::Counts mpi() const {
+    mpi_counters::Counts c = mpi_counters::now();
+    for (int k = 0; k < mpi_counters::kKinds; ++k) {
+      c.calls[k] -= mpi0_.calls[k];
+      c.bytes[k] -= mpi0_.bytes[k];
+    }
+    return c;
+  }
+
   // Scopes may nest (a snapshot rebuilds the neighbour list inside "output"): the inner
   // stage's time is taken out of the outer one, so the stages add up to the step loop.
   class Scope {
    public:
-    Scope(StageTimers& t, Stage s) : t_(t), s_(s), parent_(t.current_), start_(now()) { t.current_ = this; }
+    Scope(StageTimers& t, Stage s)
+        : t_(t), s_(s), parent_(t.current_), start_(now()), calls_(mpi_counters::collective_calls) {
+      t.current_ = this;
+    }
     ~Scope() {
       const std::uint64_t spent = now() - start_;
       t_.ticks_[s_] += spent - inner_;
-      if (parent_) parent_->inner_ += spent;
+      const std::int64_t calls = mpi_counters::collective_calls - calls_;
+      t_.collectives_[s_] += calls - inner_calls_;
+      if (parent_) {
+        parent_->inner_ += spent;
+        parent_->inner_calls_ += calls;
+      }
       t_.current_ = parent_;
     }
     Scope(const Scope&) = delete;
@@ -57,6 +81,7 @@ struct StageTimers {
     Scope* parent_;
     std::uint64_t inner_ = 0;
     std::uint64_t start_;
+    std::int64_t calls_, inner_calls_ = 0;
   };
   Scope scope(Stage s) { return Scope(*this, s); }
 
@@ -69,6 +94,8 @@ struct StageTimers {
 #endif
   }
   std::array<std::uint64_t, kStages> ticks_{};
+  std::array<std::int64_t, kStages> collectives_{};
+  mpi_counters::Counts mpi0_;
   std::uint64_t tick0_ = 0;
   std::chrono::steady_clock::time_point clock0_;
   Scope* current_ = nullptr;

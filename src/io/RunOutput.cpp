@@ -267,6 +267,17 @@ std::string json_string(const std::string& text) {
 }
 
 void RunOutput::summary(Simulation& sim, double wall, long steps, const std::string& status, const std::string& reason) {
+  // MPI calls of the step loop, read before this function makes its own.
+  namespace mc = mpi_counters;
+  const mc::Counts mpi = sim.timers.mpi();
+  const auto stage_calls = sim.timers.collectives();
+  std::array<double, 2 * mc::kKinds + StageTimers::kStages> mine_mpi{}, sum_mpi{};
+  for (int k = 0; k < mc::kKinds; ++k) {
+    mine_mpi[k] = double(mpi.calls[k]);
+    mine_mpi[mc::kKinds + k] = double(mpi.bytes[k]);
+  }
+  for (int k = 0; k < StageTimers::kStages; ++k) mine_mpi[2 * mc::kKinds + k] = double(stage_calls[k]);
+  MPI_Reduce(mine_mpi.data(), sum_mpi.data(), int(mine_mpi.size()), MPI_DOUBLE, MPI_SUM, 0, comm_);
   const double ke = sim.kinetic_energy();
   const long n = sim.total_particles();
   const double mine = wall > 0 ? double(sim.particles.nlocal) * steps / wall : 0.0;
@@ -304,6 +315,19 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
           << (k < StageTimers::kStages ? StageTimers::meaning[k] : "set-up of the step loop, guards, the rest")
           << std::setprecision(3);
   }
+  // Per step and rank (means over ranks).
+  const double per = steps > 0 ? 1.0 / (double(steps) * sim.domain.nranks) : 0.0;
+  double collectives = 0, collective_bytes = 0;
+  for (int k = 0; k < mc::kKinds; ++k)
+    if (k != mc::Send) {
+      collectives += sum_mpi[k] * per;
+      collective_bytes += sum_mpi[mc::kKinds + k] * per;
+    }
+  table << "\nMPI per step and rank: " << std::setprecision(2) << collectives << " collectives (" << collective_bytes
+        << " B in), " << sum_mpi[mc::Send] * per << " sends (" << std::setprecision(0)
+        << sum_mpi[mc::kKinds + mc::Send] * per << " B); collectives by stage:";
+  table << std::setprecision(2);
+  for (int k = 0; k < StageTimers::kStages; ++k) table << " " << StageTimers::names[k] << " " << sum_mpi[2 * mc::kKinds + k] * per;
   timing_ = table.str();
   auto num = json_number;
   std::ostringstream js;
@@ -322,7 +346,17 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
      << "  \"particle_steps_per_second\": " << num(wall > 0 ? double(n) * steps / wall : 0.0) << ",\n"
      << "  \"particle_steps_per_second_per_rank\": [";
   for (int r = 0; r < sim.domain.nranks; ++r) js << (r ? ", " : "") << num(rates[r]);
-  js << "],\n  \"halo_bytes_per_step\": " << num(steps > 0 ? double(traffic_sum[0]) / steps : 0.0)
+  js << "]";
+  js << ",\n  \"mpi_per_step_per_rank\": {\"collectives\": " << num(collectives)
+     << ", \"collective_bytes\": " << num(collective_bytes) << ", \"collectives_by_stage\": {";
+  for (int k = 0; k < StageTimers::kStages; ++k)
+    js << (k ? ", " : "") << json_string(StageTimers::names[k]) << ": " << num(sum_mpi[2 * mc::kKinds + k] * per);
+  js << "}";
+  for (int k = 0; k < mc::kKinds; ++k)
+    js << ", " << json_string(mc::kNames[k]) << ": {\"calls\": " << num(sum_mpi[k] * per)
+       << ", \"bytes\": " << num(sum_mpi[mc::kKinds + k] * per) << "}";
+  js << "}";
+  js << ",\n  \"halo_bytes_per_step\": " << num(steps > 0 ? double(traffic_sum[0]) / steps : 0.0)
      << ",\n  \"halo_messages_per_step\": " << num(steps > 0 ? double(traffic_sum[1]) / steps : 0.0);
   js << ",\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
   for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << num(sim.domain.cuts[r]);

@@ -353,36 +353,42 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   }
 }
 
+std::size_t HaloExchange::ghost_width(const ParticleStore& p) const {
+  return 6 + (p.rotation ? 3 : 0) + p.ghost_column_width();
+}
+
+void HaloExchange::pack_ghost(const ParticleStore& p, const Image& im, double* q) const {
+  const std::size_t i = im.index;
+  const Vec3 xs = p.x[i] + shift(im);
+  q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
+  q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
+  if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
+  double* e = q + 6 + (p.rotation ? 3 : 0);
+  for (const auto& c : p.module_columns)
+    if (c.ghosts) e = std::copy_n(&c.data[i * c.width], c.width, e);
+}
+
+void HaloExchange::unpack_ghost(ParticleStore& p, const double* b, std::size_t j) const {
+  p.x[j] = Vec3(b[0], b[1], b[2]);
+  p.v[j] = Vec3(b[3], b[4], b[5]);
+  if (p.rotation) p.omega[j] = Vec3(b[6], b[7], b[8]);
+  const double* e = b + 6 + (p.rotation ? 3 : 0);
+  for (auto& c : p.module_columns)
+    if (c.ghosts) {
+      std::copy_n(e, c.width, &c.data[j * c.width]);
+      e += c.width;
+    }
+}
+
 void HaloExchange::update_ghosts(ParticleStore& p) {
   const int extra = p.ghost_column_width();
-  const std::size_t width = 6 + (p.rotation ? 3 : 0) + extra;
+  const std::size_t width = ghost_width(p);
   const int me = dom_.rank;
-  auto motion = [&](const Image& im, double* q) {  // x, v (and spin, columns) of an image
-    const std::size_t i = im.index;
-    const Vec3 xs = p.x[i] + shift(im);
-    q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
-    q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
-    if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
-    double* e = q + width - extra;
-    for (const auto& c : p.module_columns)
-      if (c.ghosts) e = std::copy_n(&c.data[i * c.width], c.width, e);
-  };
-  auto unpack = [&](const double* b, std::size_t j) {
-    p.x[j] = Vec3(b[0], b[1], b[2]);
-    p.v[j] = Vec3(b[3], b[4], b[5]);
-    if (p.rotation) p.omega[j] = Vec3(b[6], b[7], b[8]);
-    const double* e = b + width - extra;
-    for (auto& c : p.module_columns)
-      if (c.ghosts) {
-        std::copy_n(e, c.width, &c.data[j * c.width]);
-        e += c.width;
-      }
-  };
   for (int r = 0; r < dom_.nranks; ++r) {
     auto& b = out_[r];
     b.resize(r == me ? 0 : send_[r].size() * width);  // this rank's own images: below, unbuffered
     double* q = b.data();
-    for (std::size_t s = 0; r != me && s < send_[r].size(); ++s, q += width) motion(send_[r][s], q);
+    for (std::size_t s = 0; r != me && s < send_[r].size(); ++s, q += width) pack_ghost(p, send_[r][s], q);
   }
   recv_others_ = recv_doubles_;
   recv_others_[me] = 0;
@@ -393,7 +399,7 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
   const double* b = in_.data();
   std::size_t j = p.nlocal;
   for (int r = 0; r < dom_.nranks; ++r) {
-    if (r == me) {  // the same values as motion() gives, copied slot to slot (no staging)
+    if (r == me) {  // the same values as pack_ghost() gives, copied slot to slot (no staging)
       for (const Image& im : send_[me]) {
         const std::size_t i = im.index;
         p.x[j] = p.x[i] + shift(im);
@@ -406,7 +412,65 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
       }
       continue;
     }
-    for (int g = 0; g < recv_ghosts_[r]; ++g, b += width) unpack(b, j++);
+    for (int g = 0; g < recv_ghosts_[r]; ++g, b += width) unpack_ghost(p, b, j++);
+  }
+}
+
+void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed) {
+  const std::size_t width = ghost_width(p), row = 1 + width;  // a row: the ghost's place in send order, its values
+  const int n = dom_.nranks, me = dom_.rank;
+  changed_.assign(p.nlocal, 0);
+  for (const std::uint32_t i : changed) changed_[i] = 1;
+  // To every rank this one sends ghosts to: a count, then the rows of the changed ones.
+  constexpr int kTag = 7302;
+  std::vector<MPI_Request> requests;
+  requests.reserve(2 * n);
+  std::vector<std::size_t> at(n + 1, 0);  // receive buffer offsets (room for every ghost)
+  for (int r = 0; r < n; ++r) at[r + 1] = at[r] + (r != me && recv_ghosts_[r] > 0 ? 1 + recv_ghosts_[r] * row : 0);
+  in_.resize(at[n]);
+  for (int r = 0; r < n; ++r)
+    if (r != me && recv_ghosts_[r] > 0) {
+      requests.emplace_back();
+      MPI_Irecv(in_.data() + at[r], int(at[r + 1] - at[r]), MPI_DOUBLE, r, kTag, dom_.comm, &requests.back());
+    }
+  for (int r = 0; r < n; ++r) {
+    if (r == me || send_[r].empty()) continue;
+    auto& b = out_[r];
+    b.assign(1, 0.0);
+    if (!changed.empty())
+      for (std::size_t s = 0; s < send_[r].size(); ++s)
+        if (changed_[send_[r][s].index]) {
+          b.resize(b.size() + row);
+          double* q = &b[b.size() - row];
+          q[0] = double(s);
+          pack_ghost(p, send_[r][s], q + 1);
+        }
+    b[0] = double((b.size() - 1) / row);
+    bytes_sent += static_cast<std::int64_t>(b.size() * sizeof(double));
+    ++messages_sent;
+    requests.emplace_back();
+    MPI_Isend(b.data(), int(b.size()), MPI_DOUBLE, r, kTag, dom_.comm, &requests.back());
+  }
+  // This rank's own images (periodic wrap), straight from the particles.
+  std::vector<std::size_t> first(n + 1, p.nlocal);  // each source rank's first ghost slot
+  for (int r = 0; r < n; ++r) first[r + 1] = first[r] + (r == me ? send_[me].size() : std::size_t(recv_ghosts_[r]));
+  if (!changed.empty()) {
+    std::vector<double> q(width);
+    for (std::size_t s = 0; s < send_[me].size(); ++s)
+      if (changed_[send_[me][s].index]) {
+        pack_ghost(p, send_[me][s], q.data());
+        unpack_ghost(p, q.data(), first[me] + s);
+      }
+  }
+  MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+  for (int r = 0; r < n; ++r) {
+    if (r == me || recv_ghosts_[r] == 0) continue;
+    const double* b = in_.data() + at[r];
+    const std::size_t rows = std::size_t(b[0]);
+    for (std::size_t k = 0; k < rows; ++k) {
+      const double* q = b + 1 + k * row;
+      unpack_ghost(p, q + 1, first[r] + std::size_t(q[0]));
+    }
   }
 }
 

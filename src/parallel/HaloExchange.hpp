@@ -36,6 +36,10 @@ class HaloExchange {
   void build_ghosts(ParticleStore& p);
   // Refreshes ghost positions, velocities, spins and integrator modes from their owners.
   void update_ghosts(ParticleStore& p);
+  // The same for the ghosts of `changed` owned particles only (indices below nlocal), in one
+  // round of messages with the ranks this one exchanges ghosts with: each says which of its
+  // particles changed, often none, so no collective is needed to agree whether any did.
+  void update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed);
 
   std::int64_t removed = 0;
   std::int64_t removed_upper = 0;  // of those, through an upper face (an outlet downstream)
@@ -68,6 +72,10 @@ class HaloExchange {
   Vec3 shift(const Image& im) const;
   std::vector<std::vector<double>>& empty_buffers();
   double shear_velocity(const Image& im) const;
+  // A ghost's row (x, v, spin, ghost columns; `width` doubles) from its owner, and back.
+  std::size_t ghost_width(const ParticleStore& p) const;
+  void pack_ghost(const ParticleStore& p, const Image& im, double* q) const;
+  void unpack_ghost(ParticleStore& p, const double* b, std::size_t j) const;
   // Sends out[r] to rank r and gathers what every rank sent here into `in`, ordered by source
   // rank. With `rcount` given, the receive sizes are known and the count exchange is skipped
   // (the per-step ghost update).
@@ -78,6 +86,7 @@ class HaloExchange {
   double range_;
   std::vector<std::vector<Image>> send_;  // per destination rank
   std::vector<int> recv_ghosts_;          // ghosts received per source rank
+  std::vector<char> changed_;             // update_ghosts_of: owned particles to send
   std::vector<int> recv_doubles_;         // per-step update message sizes
   std::vector<int> recv_others_;          // the same without this rank's own images
   std::vector<double> scratch_;           // one own image, written straight to its ghost slot

@@ -207,7 +207,7 @@ void MultiRateHill::post_rebuild(Simulation& sim) {
     if (!on_contact_steps(mode_of(p, i)) && needs_contact_steps(sim, i)) {
       set_mode(p, i, kWoken);  // its state is the exact present one, as a particle woken in pre_force
       ++wakes;
-      rebuild_woke_ = true;
+      rebuild_woken_.push_back(static_cast<std::uint32_t>(i));  // its ghosts were built free
     }
   delta_ = delta;
   make_lists(p);
@@ -321,11 +321,17 @@ void MultiRateHill::pre_force(Simulation& sim) {
   }
   wakes += static_cast<long>(woken_.size());
   if (last) materialize(sim);  // every particle gets forces at the long step's end
-  // Ghosts must show the woken (and, at the end, the moved) particles before the forces.
-  int changed = !woken_.empty() || last || rebuild_woke_, any = changed;
-  rebuild_woke_ = false;
-  if (sim.domain.nranks > 1 && !last) MPI_Allreduce(&changed, &any, 1, MPI_INT, MPI_MAX, sim.domain.comm);
-  if (any) sim.halo.update_ghosts(p);
+  // Ghosts must show the woken (and, at the end, the moved) particles before the forces: at
+  // the end all of them; otherwise only the woken ones, in one round of messages with the
+  // neighbouring ranks (no collective: a rank with none to send says so).
+  if (last) {
+    sim.halo.update_ghosts(p);
+  } else {
+    woken_.insert(woken_.end(), rebuild_woken_.begin(), rebuild_woken_.end());
+    if (sim.domain.nranks > 1 || !woken_.empty()) sim.halo.update_ghosts_of(p, woken_);
+    woken_.resize(woken_.size() - rebuild_woken_.size());
+  }
+  rebuild_woken_.clear();
   if (!woken_.empty()) {
     make_lists(p);
     find_watched(sim);  // the woken's free partners: checked from the next step, as on another rank

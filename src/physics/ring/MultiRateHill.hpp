@@ -122,7 +122,7 @@ class MultiRateHill : public Module {
   double free_drift_ = 0, free_dy_ = 0, free_speed_ = 0, free_vz_ = 0;
   std::size_t ghosts_awake_ = 0;        // ghosts on contact steps at the last check
   bool watch_dirty_ = true;
-  bool rebuild_woke_ = false;  // post_rebuild woke particles: the ghosts must hear of it
+  std::vector<std::uint32_t> rebuild_woken_;  // woken by post_rebuild: their ghosts were built free
 };
 
 }  // namespace cassini
