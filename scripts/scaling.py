@@ -52,8 +52,8 @@ def run(ranks, args, out):
     m = s.get("mpi_per_step_per_rank", {})
     return {"particles": s["particles"], "steps": s["steps"], "wall_s": s["wall_seconds"],
             "particle_steps_per_s": s["particle_steps_per_second"], "peak_mb_per_rank": round(max(peaks), 1),
-            "collectives_per_step": m.get("collectives", ""), "sends_per_step": m.get("send", {}).get("calls", ""),
-            "bytes_sent_per_step": m.get("send", {}).get("bytes", "")}
+            "collectives_per_step": round(m.get("collectives", 0.0), 3), "sends_per_step": round(m.get("send", {}).get("calls", 0.0), 3),
+            "bytes_sent_per_step": round(m.get("send", {}).get("bytes", 0.0))}
 
 
 def gas_case(tmp, n_cells, steps):
