@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
+#include "core/Initializer.hpp"
 #include "physics/contact/ContactForces.hpp"
+#include "physics/contact/DampingLimit.hpp"
 #include "physics/ring/MultiRateHill.hpp"
 
 using namespace cassini;
@@ -243,4 +245,41 @@ TEST(MultiRate, PropellerGapsTrailDownstreamOfTheMoonlet) {
   // Upstream the ring has not met the moonlet yet: near its unperturbed density.
   EXPECT_NEAR(outer_up / expected, 1, 0.3);
   EXPECT_NEAR(inner_up / expected, 1, 0.3);
+}
+
+// On contact steps only the targets get new damping loads, so the damping limit moves loads
+// for them and for last step's loaded particles only: its columns must stay those of a pass
+// over every particle, through targets that change, particles that leave the contact steps
+// and rebuilds (slots moved).
+TEST(DampingLimit, ContactStepLoadsAreThoseOfAFullPass) {
+  ParticleStore sparse, full;
+  DampingLimit ls = DampingLimit::attach(sparse), lf = DampingLimit::attach(full);
+  for (ParticleStore* p : {&sparse, &full}) {
+    for (int k = 0; k < 200; ++k) p->add(k, 0, 1.0, 1.0, Vec3(k, 0, 0), Vec3::Zero());
+    p->nlocal = p->size();
+  }
+  Random rng(3);
+  long rebuilds = 0, compared = 0, loaded = 0;
+  for (int step = 0; step < 400; ++step) {
+    if (step % 97 == 50) ++rebuilds;  // slots may have moved: the next pass is a full one
+    std::vector<std::uint32_t> targets;
+    for (std::uint32_t i = 0; i < 200; ++i)
+      if (rng.uniform() < 0.1) targets.push_back(i);
+    for (const std::uint32_t i : targets)
+      if (rng.uniform() < 0.5) {
+        const double K = rng.uniform(), G = rng.uniform();
+        ls.add(sparse, i, K, G, 1.0);
+        lf.add(full, i, K, G, 1.0);
+      }
+    ls.finish_step(sparse, targets.data(), targets.size(), rebuilds);
+    lf.finish_step(full, nullptr, full.nlocal, rebuilds);
+    for (std::size_t i = 0; i < 200; ++i) {
+      ++compared;
+      loaded += ls.scale(sparse, i) != 1.0 || full.column(full.find_column("damping_load"), i)[0] != 0;
+      ASSERT_EQ(sparse.column(sparse.find_column("damping_load"), i)[0], full.column(full.find_column("damping_load"), i)[0])
+          << "step " << step << ", particle " << i;
+      ASSERT_EQ(sparse.column(sparse.find_column("damping_load"), i)[1], full.column(full.find_column("damping_load"), i)[1]);
+    }
+  }
+  EXPECT_GT(loaded, compared / 40) << "loads must occur, or the test shows nothing";
 }

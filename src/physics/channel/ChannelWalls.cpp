@@ -125,7 +125,8 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
 
 void ChannelWalls::final_integrate(Simulation& sim) {
   shifts_.apply(sim.particles);
-  limit_.finish_step(sim.particles);
+  const Simulation::TargetList t = sim.target_list();
+  limit_.finish_step(sim.particles, t.list, t.count, sim.rebuilds);
 }
 
 double ChannelWalls::elastic_energy(const Simulation& sim) const {

@@ -377,7 +377,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
 
 void ContactForces::final_integrate(Simulation& sim) {
   shifts_.apply(sim.particles);
-  limit_.finish_step(sim.particles);
+  const Simulation::TargetList t = sim.target_list();
+  limit_.finish_step(sim.particles, t.list, t.count, sim.rebuilds);
 }
 
 double ContactForces::elastic_energy(const Simulation& sim) const {

@@ -99,7 +99,8 @@ double PlaneWalls::elastic_energy(const Simulation& sim) const {
 
 void PlaneWalls::final_integrate(Simulation& sim) {
   shifts_.apply(sim.particles);
-  limit_.finish_step(sim.particles);
+  const Simulation::TargetList t = sim.target_list();
+  limit_.finish_step(sim.particles, t.list, t.count, sim.rebuilds);
 }
 
 }  // namespace cassini

@@ -145,7 +145,8 @@ void Moonlet::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const
 
 void Moonlet::final_integrate(Simulation& sim) {
   shifts_.apply(sim.particles);
-  limit_.finish_step(sim.particles);
+  const Simulation::TargetList t = sim.target_list();
+  limit_.finish_step(sim.particles, t.list, t.count, sim.rebuilds);
 }
 
 }  // namespace cassini
