@@ -99,4 +99,5 @@ def main():
         print(f"ratio multi-rate/REBOUND: {statistics.median(multi) / statistics.median(peer):.2f}")
 
 
-main()
+if __name__ == "__main__":
+    main()

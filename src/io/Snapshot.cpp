@@ -149,6 +149,24 @@ void double_column(hid_t g, const std::string& name, const Rows& r, const std::v
 
 namespace {
 
+// out[r] to rank r, for every r; returns what every rank sent here, ordered by source rank.
+std::vector<double> send_to_ranks(const std::vector<std::vector<double>>& out, MPI_Comm comm) {
+  const int P = int(out.size());
+  std::vector<int> sc(P), rc(P), sd(P), rd(P);
+  std::vector<double> sendbuf;
+  for (int r = 0; r < P; ++r) {
+    sc[r] = int(out[r].size());
+    sd[r] = int(sendbuf.size());
+    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
+  }
+  MPI_Alltoall(sc.data(), 1, MPI_INT, rc.data(), 1, MPI_INT, comm);
+  int total = 0;
+  for (int r = 0; r < P; ++r) { rd[r] = total; total += rc[r]; }
+  std::vector<double> in(total);
+  MPI_Alltoallv(sendbuf.data(), sc.data(), sd.data(), MPI_DOUBLE, in.data(), rc.data(), rd.data(), MPI_DOUBLE, comm);
+  return in;
+}
+
 // Every rank's particle rows, redistributed into blocks of ids and ordered by id within its
 // block: the file's rows are in id order whatever the rank count. Returns this rank's rows,
 // `width` doubles each, in the order of `columns`.
@@ -172,18 +190,7 @@ std::vector<double> rows_by_id(const Simulation& sim, const std::vector<GrainCol
       row += c.width;
     }
   }
-  std::vector<int> sc(P), rc(P), sd(P), rd(P);
-  std::vector<double> sendbuf, in;
-  for (int r = 0; r < P; ++r) {
-    sc[r] = int(out[r].size());
-    sd[r] = int(sendbuf.size());
-    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
-  }
-  MPI_Alltoall(sc.data(), 1, MPI_INT, rc.data(), 1, MPI_INT, dom.comm);
-  int tot = 0;
-  for (int r = 0; r < P; ++r) { rd[r] = tot; tot += rc[r]; }
-  in.resize(tot);
-  MPI_Alltoallv(sendbuf.data(), sc.data(), sd.data(), MPI_DOUBLE, in.data(), rc.data(), rd.data(), MPI_DOUBLE, dom.comm);
+  const std::vector<double> in = send_to_ranks(out, dom.comm);
   const std::size_t n = in.size() / width;
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
@@ -473,18 +480,7 @@ std::vector<HistoryEntry> read_springs(const SnapshotReader& in, const std::vect
                                 impact[k], roll[3 * k], roll[3 * k + 1], roll[3 * k + 2]};
     out[r].insert(out[r].end(), row, row + kWidth);
   }
-  std::vector<int> sc(P), rc(P), sd(P), rd(P);
-  std::vector<double> sendbuf;
-  for (int r = 0; r < P; ++r) {
-    sc[r] = int(out[r].size());
-    sd[r] = int(sendbuf.size());
-    sendbuf.insert(sendbuf.end(), out[r].begin(), out[r].end());
-  }
-  MPI_Alltoall(sc.data(), 1, MPI_INT, rc.data(), 1, MPI_INT, dom.comm);
-  int total = 0;
-  for (int r = 0; r < P; ++r) { rd[r] = total; total += rc[r]; }
-  std::vector<double> got(total);
-  MPI_Alltoallv(sendbuf.data(), sc.data(), sd.data(), MPI_DOUBLE, got.data(), rc.data(), rd.data(), MPI_DOUBLE, dom.comm);
+  const std::vector<double> got = send_to_ranks(out, dom.comm);
   std::vector<std::int64_t> held(my_ids.size());  // ascending: the rows are in id order
   for (std::size_t k = 0; k < my_ids.size(); ++k) held[k] = bits_id(my_ids[k]);
   std::vector<HistoryEntry> springs;
