@@ -177,6 +177,8 @@ void Simulation::rebuild() {
     halo.build_ghosts(particles);
     neighbors.build(particles, domain, range, skin + cfg.pair_reach);
   }
+  list_entries += double(neighbors.size());
+  for (const std::uint32_t j : neighbors.partner) ghost_entries += j >= particles.nlocal;
   if (domain.nranks > 1) {  // the cost balance the ranks actually ran with (summary.json)
     const double now = domain.imbalance(static_cast<double>(particles.nlocal + neighbors.size()));
     imbalance_sum += now;

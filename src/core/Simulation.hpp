@@ -117,6 +117,10 @@ class Simulation {
   // Max / mean rank cost (particles + neighbour pairs) measured at every rebuild.
   double imbalance_sum = 0, imbalance_worst = 1;
   long imbalance_samples = 0;
+  // Neighbour-list entries at the rebuilds, on this rank: all, and those with a ghost partner.
+  // Owned pairs are listed on both rows and evaluated once; a pair across ranks is evaluated on
+  // each side (summary.json: pair evaluations per distinct pair).
+  double list_entries = 0, ghost_entries = 0;
 
   std::vector<std::unique_ptr<Module>> modules;  // integrator first, guards last (ModuleRegistry.hpp)
   // A module with a tangential spring per particle and wall (plane walls, channel faces, the

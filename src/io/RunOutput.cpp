@@ -278,6 +278,13 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   }
   for (int k = 0; k < StageTimers::kStages; ++k) mine_mpi[2 * mc::kKinds + k] = double(stage_calls[k]);
   MPI_Reduce(mine_mpi.data(), sum_mpi.data(), int(mine_mpi.size()), MPI_DOUBLE, MPI_SUM, 0, comm_);
+  // Pair evaluations per distinct pair: owned pairs once (listed twice), pairs across ranks
+  // (and periodic self-images) on each side.
+  const double entries[2] = {sim.list_entries, sim.ghost_entries};
+  double entries_sum[2] = {0, 0};
+  MPI_Reduce(entries, entries_sum, 2, MPI_DOUBLE, MPI_SUM, 0, comm_);
+  const double owned_pairs = 0.5 * (entries_sum[0] - entries_sum[1]);
+  const double evaluations_per_pair = entries_sum[0] > 0 ? (owned_pairs + entries_sum[1]) / (owned_pairs + 0.5 * entries_sum[1]) : 1.0;
   const double ke = sim.kinetic_energy();
   const long n = sim.total_particles();
   const double mine = wall > 0 ? double(sim.particles.nlocal) * steps / wall : 0.0;
@@ -362,6 +369,7 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << num(sim.domain.cuts[r]);
   js << "],\n  \"decomposition\": " << json_string(sim.cfg.decomposition);
   js << ",\n  \"imbalance_at_last_balancing\": " << num(sim.imbalance);
+  js << ",\n  \"pair_evaluations_per_pair\": " << num(evaluations_per_pair);
   js << ",\n  \"imbalance_mean\": " << num(sim.imbalance_samples ? sim.imbalance_sum / sim.imbalance_samples : 1.0);
   js << ",\n  \"imbalance_worst\": " << num(sim.imbalance_worst) << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
