@@ -419,7 +419,9 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
 void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed) {
   const std::size_t width = ghost_width(p), row = 1 + width;  // a row: the ghost's place in send order, its values
   const int n = dom_.nranks, me = dom_.rank;
-  changed_.assign(p.nlocal, 0);
+  // Marks by slot, set and cleared for the changed ones only: most contact steps change none,
+  // and a pass over every owned particle would be most of such a step's cost.
+  if (changed_.size() < p.nlocal) changed_.resize(p.nlocal, 0);
   for (const std::uint32_t i : changed) changed_[i] = 1;
   // To every rank this one sends ghosts to: a count, then the rows of the changed ones.
   constexpr int kTag = 7302;
@@ -462,6 +464,7 @@ void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uin
         unpack_ghost(p, q.data(), first[me] + s);
       }
   }
+  for (const std::uint32_t i : changed) changed_[i] = 0;
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
   for (int r = 0; r < n; ++r) {
     if (r == me || recv_ghosts_[r] == 0) continue;

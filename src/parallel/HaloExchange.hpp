@@ -86,7 +86,7 @@ class HaloExchange {
   double range_;
   std::vector<std::vector<Image>> send_;  // per destination rank
   std::vector<int> recv_ghosts_;          // ghosts received per source rank
-  std::vector<char> changed_;             // update_ghosts_of: owned particles to send
+  std::vector<char> changed_;             // update_ghosts_of: owned particles to send (all 0 between calls)
   std::vector<int> recv_doubles_;         // per-step update message sizes
   std::vector<int> recv_others_;          // the same without this rank's own images
   std::vector<double> scratch_;           // one own image, written straight to its ghost slot
