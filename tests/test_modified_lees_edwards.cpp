@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
+#include "physics/contact/ContactForces.hpp"
 
 using namespace cassini;
 using namespace cassini::test;
@@ -141,6 +142,53 @@ TEST(ModifiedLeesEdwards, WithoutMoonletLE1IsStatisticallyLE2) {
   // (each bin sums ~200 particles x ~75 samples, correlated over a crossing time).
   for (int k = 0; k < bins; ++k) EXPECT_NEAR(h1[k] / h2[k], 1.0, 0.10) << "x bin " << k;
   EXPECT_NEAR(std::sqrt(var1 / var2), 1.0, 0.05) << "radial velocity dispersion LE1 / LE2";
+}
+
+TEST(ModifiedLeesEdwards, HotRingWithoutMoonletLE1IsStatisticallyLE2) {
+  // A hot ring (sigma 40 mm/s per component, e = 0.9: the dispersion a constant-e ring reaches
+  // near e = 0.85) moves against the shear flow wherever |1.5 Omega0 y| < ~sigma: within ~170 m of
+  // y = 0 here, a third of the box. LE1 and LE2 start as twins and stay twins there (no moonlet).
+  // Before the fix, an LE2 particle that crossed x against the flow re-entered LE2 within range
+  // of the opposite face and was shown at once to LE1 beyond its inflow face: on top of its own
+  // LE1 twin, which had not crossed yet (overlaps of ~2 radii, the overlap guard's stop at
+  // e >= 0.9 in docs/propeller.md), and a clone entered LE1 through its outflow face.
+  auto sim = make_sim(ring_patch(), with(kFed, {"particles.count=2000", "species.0.e=0.9", "particles.dispersion=0",
+                                                "particles.velocity_sigma=0.04"}));
+  sim->setup();
+  const int bins = 10;
+  const long N = sample(*sim, bins).n2;
+  const long every = std::lround(200.0 / sim->dt), steps = std::lround(0.5 * kT0 / sim->dt);
+  std::vector<double> h1(bins, 0), h2(bins, 0);
+  double n1 = 0, var1 = 0, var2 = 0, worst = 0;
+  int samples = 0;
+  for (long s = 1; s <= steps; ++s) {
+    ASSERT_NO_THROW(sim->step()) << "step " << s;
+    ASSERT_FALSE(sim->finished) << "stopped at step " << s << " (a guard)";
+    if (auto* c = sim->find<ContactForces>()) worst = std::max(worst, c->max_overlap_fraction());
+    if (s % every) continue;
+    const Sample x = sample(*sim, bins);
+    ASSERT_EQ(x.n2, N) << "LE2 keeps every particle";
+    EXPECT_EQ(x.n1 - N, sim->halo.fed - sim->halo.drained) << "LE1 changes by fed minus drained only";
+    n1 += double(x.n1);
+    for (int k = 0; k < bins; ++k) { h1[k] += x.hist1[k]; h2[k] += x.hist2[k]; }
+    var1 += x.var1;
+    var2 += x.var2;
+    ++samples;
+  }
+  std::printf("hot ring: LE1 population %.4f of LE2's; returned against the flow %ld, fed %ld, drained %ld, not "
+              "inserted %ld; sigma_y LE1/LE2 %.4f; worst overlap %.4f radii; x bins LE1/LE2:",
+              n1 / samples / N, long(sim->halo.returned), long(sim->halo.fed), long(sim->halo.drained),
+              long(sim->halo.stillborn), std::sqrt(var1 / var2), worst);
+  for (int k = 0; k < bins; ++k) std::printf(" %.3f", h1[k] / h2[k]);
+  std::printf("\n");
+  EXPECT_GT(sim->halo.returned, 40) << "the scene must exercise crossings against the flow";
+  // The hottest impacts of this ring (~0.25 m/s, the Gaussian tail of a 40 mm/s dispersion over
+  // a few thousand collisions) overlap by v t_c / pi = 0.32 m = 0.16 radii at t_c = 4 s; a
+  // particle placed on its twin or on unseen material overlaps by up to 2.
+  EXPECT_LT(worst, 0.4) << "an LE1 particle overlapped something by " << worst << " radii";
+  EXPECT_NEAR(n1 / samples / N, 1.0, 0.02) << "LE1's mean population";
+  for (int k = 0; k < bins; ++k) EXPECT_NEAR(h1[k] / h2[k], 1.0, 0.05) << "x bin " << k;
+  EXPECT_NEAR(std::sqrt(var1 / var2), 1.0, 0.03) << "radial velocity dispersion LE1 / LE2";
 }
 
 TEST(ModifiedLeesEdwards, NeedsShearedBoundaries) {

@@ -23,6 +23,10 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   particles.impacts = cfg.velocity_dependent_restitution();
   particles.rolling = cfg.rolling();
   particles.copies = cfg.modified_lees_edwards;
+  if (particles.copies) {  // the boundaries' own state per particle (HaloExchange)
+    particles.declare(HaloExchange::kEnteredColumn, 1, false);
+    particles.declare(HaloExchange::kInflowColumn, 1, false);
+  }
   if (cfg.decomposition == "metis") domain.use_cells(range);
   // The modules, in registry order between the integrator and the guards. Made here, not in
   // setup(): they size the per-particle wall springs (claim_wall_slots), which a restart reads.
@@ -63,6 +67,9 @@ void Simulation::setup() {
   }
   if (particles.size() == 0 && !restored) place_particles(cfg, domain, particles);
   particles.nlocal = particles.size();
+  // "The position at the last build" before the first: where they are (a restart's frame was
+  // written right after a build, so its first build sees what the run it continues saw).
+  for (std::size_t i = 0; i < particles.nlocal; ++i) particles.x_build[i] = particles.x[i];
   rebuild();
   for (auto& m : modules) m->setup(*this);  // modules may need the placed particles (and set up data F needs)
   if (!restored) {
@@ -196,12 +203,21 @@ void Simulation::rebuild() {
 
 bool Simulation::remove_stillborn() {
   ParticleStore& p = particles;
+  const std::size_t entered = p.find_column(HaloExchange::kEnteredColumn);
+  bool any_entered = false;  // here, at this rebuild's migration
+  for (std::size_t i = 0; i < p.nlocal && !any_entered; ++i) any_entered = *p.column(entered, i) != 0;
   std::vector<std::size_t> doomed;
-  if (halo.born_first < halo.next_id)  // clones were made at this rebuild's migration
+  if (any_entered) {
     neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
-      const bool clone = p.id[c.i] >= halo.born_first && p.id[c.i] < halo.next_id;
-      if (clone && (doomed.empty() || doomed.back() != c.i)) doomed.push_back(c.i);
+      if (*p.column(entered, c.i) != 0 && (doomed.empty() || doomed.back() != c.i)) doomed.push_back(c.i);
     });
+    for (const std::size_t i : doomed) {  // a clone is not inserted; a returned particle is drained after all
+      const bool clone = *p.column(entered, i) == 1;
+      (clone ? halo.fed : halo.returned) -= 1;
+      (clone ? halo.stillborn : halo.drained) += 1;
+    }
+    for (std::size_t i = 0; i < p.nlocal; ++i) *p.column(entered, i) = 0;
+  }
   int mine = doomed.empty() ? 0 : 1, any = 0;
   MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, domain.comm);
   if (!any) return false;
@@ -213,8 +229,6 @@ bool Simulation::remove_stillborn() {
     p.nlocal = last;
     p.resize(last);
   }
-  halo.stillborn += static_cast<std::int64_t>(doomed.size());
-  halo.fed -= static_cast<std::int64_t>(doomed.size());
   return true;
 }
 
@@ -397,12 +411,13 @@ void Simulation::run(RunSink* out) {
   output_ = nullptr;
   if (global_guard_pending()) check_guards();
   if (domain.fed_x) {  // the modified boundaries' bookkeeping, for summary.json
-    long long local[4] = {halo.fed, halo.drained, halo.stillborn, 0}, g[4];
+    long long local[5] = {halo.fed, halo.drained, halo.stillborn, 0, halo.returned}, g[5];
     for (std::size_t i = 0; i < particles.nlocal; ++i) local[3] += particles.le_copy[i] == 0;
-    MPI_Allreduce(local, g, 4, MPI_LONG_LONG, MPI_SUM, domain.comm);
+    MPI_Allreduce(local, g, 5, MPI_LONG_LONG, MPI_SUM, domain.comm);
     std::ostringstream os;
     os << "{\"fed_into_le1\": " << g[0] << ", \"drained_from_le1\": " << g[1] << ", \"clones_not_inserted\": " << g[2]
-       << ", \"le1_particles\": " << g[3] << ", \"le2_particles\": " << total_particles() - g[3] << "}";
+       << ", \"returned_against_flow\": " << g[4] << ", \"le1_particles\": " << g[3]
+       << ", \"le2_particles\": " << total_particles() - g[3] << "}";
     set_result("modified_lees_edwards", os.str());
   }
   // A run that a module ended (a clog) gets a last frame with its final state and results; an

@@ -82,6 +82,11 @@ namespace {
 bool crossed_x_only(const Decomposition& dom, const Vec3& x) {
   return x[1] >= dom.lo[1] && x[1] < dom.hi[1] && (x[0] < dom.lo[0] || x[0] >= dom.hi[0]);
 }
+// A particle that crossed x did so with the shear flow gamma_dot y (out through hi where the flow
+// is positive, through lo where it is negative) or against it.
+bool crossed_against_flow(const Decomposition& dom, const Vec3& x) {
+  return (x[0] >= dom.hi[0]) != (dom.shear.rate * x[1] > 0);
+}
 }  // namespace
 
 void HaloExchange::feed(ParticleStore& p) {
@@ -94,7 +99,7 @@ void HaloExchange::feed(ParticleStore& p) {
   std::vector<std::int64_t> sources;
   std::vector<std::size_t> slots;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.le_copy[i] == 1 && crossed_x_only(dom_, p.x[i])) {
+    if (p.le_copy[i] == 1 && crossed_x_only(dom_, p.x[i]) && !crossed_against_flow(dom_, p.x[i])) {
       sources.push_back(p.id[i]);
       slots.push_back(i);
     }
@@ -107,18 +112,20 @@ void HaloExchange::feed(ParticleStore& p) {
   MPI_Allgatherv(sources.data(), n, MPI_INT64_T, all.data(), counts.data(), displ.data(), MPI_INT64_T, dom_.comm);
   std::sort(all.begin(), all.end());
   const double Lx = dom_.length[0];
+  const std::size_t entered = p.find_column(kEnteredColumn), shown = p.find_column(kInflowColumn);
   for (std::size_t k = 0; k < slots.size(); ++k) {
     const std::size_t j = p.size();
     p.resize(j + 1);
     p.copy(slots[k], j);  // its whole state: the clone is where its original re-enters LE2
     p.le_copy[j] = 0;
+    *p.column(entered, j) = 1;
+    *p.column(shown, j) = 0;
     p.id[j] = next_id + (std::lower_bound(all.begin(), all.end(), sources[k]) - all.begin());
     p.x[j][0] -= Lx * std::floor((p.x[j][0] - dom_.lo[0]) / Lx);
     if (p.x[j][0] >= dom_.hi[0]) p.x[j][0] = dom_.lo[0];
     shear_energy += 0.5 * p.mass[j] * p.v[j].squaredNorm();  // the boundary's work (energy guard)
   }
   p.nlocal = p.size();
-  born_first = next_id;  // the clones of every rank: ids [born_first, next_id), wherever they migrate
   next_id += static_cast<std::int64_t>(all.size());
   fed += static_cast<std::int64_t>(slots.size());
 }
@@ -138,9 +145,15 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
   };
   std::vector<std::vector<double>>& out = empty_buffers();
   const Vec3 L = dom_.length;
+  const std::size_t entered = dom_.fed_x ? p.find_column(kEnteredColumn) : ParticleStore::kNoColumn;
   for (std::size_t i = p.nlocal; i-- > 0;) {
     Vec3& x = p.x[i];
-    const bool drain = dom_.fed_x && p.le_copy[i] == 0 && crossed_x_only(dom_, x);  // left LE1: removed
+    const bool left_le1 = dom_.fed_x && p.le_copy[i] == 0 && crossed_x_only(dom_, x);
+    const bool drain = left_le1 && !crossed_against_flow(dom_, x);  // out with the flow: removed
+    if (left_le1 && !drain) {  // out against it: back in through the opposite face (the wrap below)
+      ++returned;
+      *p.column(entered, i) = 2;
+    }
     bool gone = drain;
     if (drain) {
       ++drained;
@@ -217,6 +230,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   const bool sheared = dom_.shear.enabled;
   const double off = sheared ? dom_.shear.wrapped(L[0]) : 0.0;
   shear_base_ = dom_.shear.offset - off;
+  const std::size_t shown = dom_.fed_x ? p.find_column(kInflowColumn) : ParticleStore::kNoColumn;
 
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     const Vec3& x = p.x[i];
@@ -246,6 +260,17 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
       const double flow = dom_.shear.rate * x[1];  // the imposed flow v_x
       if (flow > 0 && x[0] >= dom_.hi[0] - range_) inflow = -1;
       else if (flow < 0 && x[0] < dom_.lo[0] + range_) inflow = 1;
+      // Shown only once it came into range from inside LE2 (then the image first appears about
+      // `range` beyond the face, clear of LE1), and for as long as it stays: not when it got
+      // there by a wrap (an x crossing against the flow, or a sheared crossing) or by y changing
+      // sign near the face. Such an image would appear on top of LE1 material, on its own twin
+      // when LE1 is still LE2 there (near y = 0, far from the moonlet, for orbits).
+      double& on = *p.column(shown, i);
+      const Vec3& xb = p.x_build[i];  // the position at the last build
+      const bool wrapped = std::abs(x[0] - xb[0]) > 0.5 * L[0] || std::abs(x[1] - xb[1]) > 0.5 * L[1];
+      const bool from_inside = inflow == -1 ? xb[0] < dom_.hi[0] - range_ : xb[0] >= dom_.lo[0] + range_;
+      if (wrapped || !(on != 0 || from_inside)) inflow = 0;
+      on = inflow != 0 ? 1.0 : 0.0;
     }
     for (int iy = 0; iy < nc[1]; ++iy) {
       const std::int8_t ky = cand[1][iy];

@@ -46,16 +46,28 @@ class HaloExchange {
   double shear_momentum = 0;  // sum of m dv_x applied by Lees-Edwards crossings on this rank
   double shear_energy = 0;    // kinetic energy those velocity jumps added (the shear's work)
   std::int64_t shear_crossings = 0;  // particles wrapped through the sheared boundary here
-  // Modified Lees-Edwards boundaries (Decomposition::fed_x): LE2 particles that crossed x and
-  // were copied into LE1, LE1 particles that left through x and were removed (on this rank),
-  // and the next free particle id (the same on every rank; a snapshot keeps it).
-  std::int64_t fed = 0, drained = 0;
-  std::int64_t next_id = -1;
-  std::int64_t born_first = 0;  // the clones made at the last migration (all ranks) have ids [born_first, next_id)
-  // Clones that would overlap LE1 material are not inserted, as an inlet refuses an overlapping
-  // bead: LE1 particles across a y face of the corner the clone enters by could not see its
-  // original (Simulation::rebuild removes them once the new neighbour list shows the overlap).
+  // Modified Lees-Edwards boundaries (Decomposition::fed_x), counts on this rank:
+  //  - fed: LE2 particles that crossed x with the shear flow and were copied into LE1 (at its
+  //    inflow face);
+  //  - drained: LE1 particles that left through x with the flow (its outflow face), removed;
+  //  - returned: LE1 particles that left against the flow (through the inflow face, possible
+  //    near y = 0 where a particle's own velocity beats the flow), kept in LE1: they re-enter
+  //    through the opposite (outflow) face, as in a periodic box. LE2 crossings against the flow
+  //    make no clone. So against-flow traffic is LE1's own, as LE2's is LE2's, and LE1 without a
+  //    moonlet is statistically LE2 at any velocity dispersion.
+  std::int64_t fed = 0, drained = 0, returned = 0;
+  std::int64_t next_id = -1;  // the next free particle id (the same on every rank; a snapshot keeps it)
+  // Particles that enter LE1 (clones, returned ones) and would overlap LE1 material are taken
+  // out again, as an inlet refuses an overlapping bead (Simulation::remove_stillborn, once the
+  // new neighbour list shows the overlap): nothing there saw them coming. A clone taken out
+  // counts here; a returned one counts as drained.
   std::int64_t stillborn = 0;
+  // Per-particle columns of these boundaries (ParticleStore::declare, in snapshots):
+  //  - kEnteredColumn: 1 for a clone made at this rebuild's migration, 2 for a returned particle,
+  //    else 0 (read by Simulation::remove_stillborn, cleared after it);
+  //  - kInflowColumn: 1 while an LE2 particle is shown to LE1 beyond LE1's inflow face.
+  static constexpr const char* kEnteredColumn = "le_entered";
+  static constexpr const char* kInflowColumn = "le_inflow_image";
   // Traffic to other ranks since the run started (ghost updates, ghost builds, migration):
   // bytes and non-empty messages, for docs/scaling.md's model.
   std::int64_t bytes_sent = 0, messages_sent = 0;
