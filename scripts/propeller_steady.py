@@ -204,14 +204,15 @@ import matplotlib.pyplot as plt
 if table:
     es = [t["e"] for t in table]
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-    ax[0].errorbar(es, [t["sigma_ring"][0] * 1e3 for t in table], [t["sigma_ring"][1] * 1e3 for t in table], marker="o",
+    err = lambda v: float(np.nan_to_num(v))  # one seed: no seed scatter to draw
+    ax[0].errorbar(es, [t["sigma_ring"][0] * 1e3 for t in table], [err(t["sigma_ring"][1]) * 1e3 for t in table], marker="o",
                    label="ring (LE2) sigma_y")
     ax[0].plot(es, [t["dv_y"][0] * 1e3 for t in table], "s--", label="thesis dv_y (all of LE1)")
     ax[0].axhline(V_HILL * 1e3, color="k", ls=":", label="v_H")
     ax[0].set_xlabel("e")
     ax[0].set_ylabel("mm/s")
     ax[0].legend()
-    ax[1].errorbar(es, [t["depth"][0] for t in table], [t["depth"][1] for t in table], marker="o", label="gap depth D")
+    ax[1].errorbar(es, [t["depth"][0] for t in table], [err(t["depth"][1]) for t in table], marker="o", label="gap depth D")
     ax[1].errorbar(es, [t["null"][0] for t in table], [3 * t["null_sd"] for t in table], marker="x", ls="", label="null (no moonlet), 3 sd")
     ax[1].axhline(0.5, color="k", ls=":", label="D = 0.5 (contrast 2)")
     ax[1].set_xlabel("e")

@@ -3,15 +3,15 @@
 planar and 3D (Saturn's vertical tide), from a hot and a cold start, run until it is stationary.
 
    /usr/bin/python3 scripts/ring_steady_state.py [--dims 2 3] [--e 0.25 0.5 ...] [--seeds 1 2 3]
-                     [--box 1000] [--segment 5] [--max-orbits 40] [--lanes 2] [--out DIR]
+                     [--box 1000] [--segment 5] [--max-orbits 40 20] [--lanes 2] [--out DIR]
    /usr/bin/python3 scripts/ring_steady_state.py --table-only [...]   (analysis of what is there)
 
 Each run advances in segments of --segment orbits (a restart from the last segment's snapshot:
 bitwise the run it continues). After every round the criterion below is taken for each (dims,
 e) group of 2 x seeds runs; a group that meets it, or runs away, stops.
 
-Stationarity criterion, on the orbit means of sigma_y = sqrt(T_yy) (velocity about the Keplerian
-shear) over the window = the second half of the run (at least 4 orbits):
+Stationarity criterion, on the orbit means of sigma_y (the radial velocity dispersion about the
+mean velocity: T_yy less the centre of mass's own epicycle) over the window = the second half of the run (at least 4 orbits):
   (a) the hot and the cold starts agree: |mean_hot - mean_cold| <= max(3 %, 2 standard errors);
   (b) no trend: a straight line through all runs' orbit means of the window changes by at most
       max(3 %, 2 standard errors) across the window.
@@ -19,7 +19,8 @@ The steady value is the window mean over every run; its error is the standard er
 runs (independent seeds and starts: no autocorrelation enters). A group whose sigma_y passes
 --cap (m/s) in any run is a runaway; one still failing at --max-orbits is "not stationary".
 
-For 3D groups the table also gives the hot start's growth rate d ln(T_yy) / dt over orbits 1-8:
+For 3D groups the table also gives the hot start's growth rate d ln(sigma_y) / dt over orbits 5-20
+(--rate-window; the isotropic start's anisotropy relaxes first, over ~1/(collision rate)):
 in the dilute regime (sigma >> Omega a) Goldreich & Tremaine's balance makes it change sign at
 the critical e_cr(tau), ~0.63 for tau -> 0; above it sigma grows exponentially.
 
@@ -39,6 +40,7 @@ HILL = Hill({})  # cases/ring-section and cases/propeller: hill's default Saturn
 OMEGA0, T0 = HILL.omega0, HILL.period
 V_HILL = HILL.hill_radius(1.27e10) * OMEGA0  # the propeller's moonlet: 35.2 mm/s
 RADIUS, TAU = 2.0, 30000 * math.pi * 2.0 ** 2 / (18000.0 * 2000.0)  # cases/propeller's ring
+PARTICLE_MASS = 4 / 3 * math.pi * RADIUS ** 3 * 500.0  # kg: cases/ring-section's density
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--dims", type=int, nargs="*", default=[2, 3])
@@ -47,12 +49,16 @@ ap.add_argument("--e3d", type=float, nargs="*", default=None, help="e values of 
 ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3])
 ap.add_argument("--box", type=float, default=1000.0, help="square patch side (m)")
 ap.add_argument("--segment", type=int, default=5, help="orbits per segment")
-ap.add_argument("--max-orbits", type=int, default=40)
+ap.add_argument("--max-orbits", type=int, nargs=2, default=[40, 20], metavar=("PLANAR", "3D"),
+                help="orbits after which a group still failing the criterion is reported as not stationary")
 ap.add_argument("--cap", type=float, nargs=2, default=[0.12, 0.02], metavar=("PLANAR", "3D"),
                 help="sigma_y (m/s) beyond which a group is a runaway")
 ap.add_argument("--hot", type=float, nargs=2, default=[0.08, 0.003], metavar=("PLANAR", "3D"),
                 help="hot start: Gaussian velocity dispersion per component (m/s)")
 ap.add_argument("--cold", type=float, default=5e-4, help="cold start dispersion (m/s)")
+ap.add_argument("--rate-window", type=float, nargs=2, default=[5.0, 20.0], metavar=("FROM", "TO"),
+                help="orbits over which a 3D hot start's growth rate is fitted (after its anisotropy relaxed: "
+                     "~5 orbits at ~0.2 collisions per particle and orbit)")
 ap.add_argument("--lanes", type=int, default=2)
 ap.add_argument("--table-only", action="store_true")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "ring-steady"))
@@ -143,7 +149,12 @@ def series(run):
         o = Run(d).observables()
         for k in range(len(o["time"])):
             if not rows or o["time"][k] > rows[-1][0] + 1e-6:
-                rows.append((o["time"][k], o["T_yy"][k], o["T_zz"][k], o["particles"][k]))
+                # T_ii is about the shear flow; the patch's centre of mass also moves (a start's
+                # net momentum is an epicycle that collisions never damp, ~sigma0 / sqrt(N)):
+                # the dispersion is about the mean velocity.
+                mass = o["particles"][k] * PARTICLE_MASS
+                rows.append((o["time"][k], o["T_yy"][k] - (o["py"][k] / mass) ** 2, o["T_zz"][k] - (o["pz"][k] / mass) ** 2,
+                             o["particles"][k]))
     r = np.array(rows) if rows else np.zeros((0, 4))
     out = []
     # orbit k: rows in ((k-1) T0, k T0] (the row at k T0 itself may come with the next segment)
@@ -163,13 +174,13 @@ def judge(dims, e):
     peak = max(r[:, 1].max() for _, r in runs.values())
     lost = max(r[0, 3] - r[-1, 3] for _, r in runs.values())
     detail = dict(orbits=n)
-    if dims == 3:  # the hot start's exponential rate over orbits 1-8 (or what exists)
+    if dims == 3:  # the hot start's exponential rate over the --rate-window orbits (or what exists)
         rates = []
         for s in a.seeds:
             _, r = runs[("hot", s)]
-            m = (r[:, 0] >= T0) & (r[:, 0] <= 8 * T0)
+            m = (r[:, 0] >= a.rate_window[0] * T0) & (r[:, 0] <= a.rate_window[1] * T0)
             if m.sum() > 3:
-                rates.append(np.polyfit(r[m, 0] / T0, np.log(r[m, 1]), 1)[0])
+                rates.append(np.polyfit(r[m, 0] / T0, 0.5 * np.log(r[m, 1]), 1)[0])
         if rates:
             detail["hot_rate_per_orbit"] = (float(np.mean(rates)), float(np.std(rates, ddof=1) / math.sqrt(len(rates))) if len(rates) > 1 else float("nan"))
     cap = a.cap[0] if dims == 2 else a.cap[1]
@@ -208,14 +219,15 @@ state = {g: "pending" for g in groups}
 cpu, t_start = 0.0, time.time()
 if not a.table_only:
     orbits = 0
-    while orbits < a.max_orbits and any(state[g] in ("pending", "running") for g in groups):
-        orbits = min(a.max_orbits, orbits + a.segment)
-        jobs = [(d, e, st, s, orbits) for (d, e) in groups if state[(d, e)] in ("pending", "running")
+    limit = lambda dims: a.max_orbits[0] if dims == 2 else a.max_orbits[1]
+    while any(state[g] in ("pending", "running") and orbits < limit(g[0]) for g in groups):
+        orbits += a.segment
+        jobs = [(d, e, st, s, orbits) for (d, e) in groups if state[(d, e)] in ("pending", "running") and orbits <= limit(d)
                 for st in ("hot", "cold") for s in a.seeds]
         with ThreadPoolExecutor(a.lanes) as pool:
             cpu += sum(pool.map(advance, jobs))
         for g in groups:
-            if state[g] in ("pending", "running"):
+            if state[g] in ("pending", "running") and orbits <= limit(g[0]):
                 state[g], det = judge(*g)
                 print(f"orbit {orbits:3d}  dims {g[0]} e {g[1]}: {state[g]}  "
                       + (f"sigma_y {det['sigma_y'] * 1e3:.2f} mm/s hot-cold {det['gap'] * 1e3:+.2f} trend {det['change'] * 1e3:+.2f}"
@@ -245,12 +257,37 @@ with open(os.path.join(a.out, "steady.csv"), "w") as f:
         f.write(f"{t['dims']},{t['e']},{t['state']},{t.get('orbits', '')},{w[0]},{w[1]},{t.get('sigma_y', '')},"
                 f"{t.get('sigma_y_err', '')},{t.get('hot', '')},{t.get('cold', '')},{t.get('change', '')},"
                 f"{t.get('sigma_z', '')},{rate[0]},{rate[1]}\n")
+def zero_crossing(points):
+    """e where a quantity (value, error) changes sign, linear between scanned e; the range is
+    where the curves of value - error and value + error cross (nan: outside the scanned e)."""
+    pts = sorted(points)
+
+    def cut(values):
+        for (e0, v0), (e1, v1) in zip(values, values[1:]):
+            if v0 * v1 <= 0 and v0 != v1:
+                return e0 + (e1 - e0) * v0 / (v0 - v1)
+        return float("nan")
+    mid = cut([(e, v) for e, (v, err) in pts])
+    if mid != mid:
+        return None
+    shifted = sorted(cut([(e, v + k * err) for e, (v, err) in pts]) for k in (-1, 1))
+    return mid, shifted[0], shifted[1]
+
+
+def v_hill_crossing():
+    """Planar: e where the steady sigma_y equals v_H (linear between the stationary groups)."""
+    pts = sorted((t["e"], (t["sigma_y"] - V_HILL, t["sigma_y_err"])) for t in table if t["dims"] == 2 and t["state"] == "stationary")
+    return zero_crossing(pts)
+
+
+e_cr = zero_crossing([(t["e"], t["hot_rate_per_orbit"]) for t in table if t["dims"] == 3 and "hot_rate_per_orbit" in t])
 prev = {}
 if os.path.exists(os.path.join(a.out, "summary.json")):
     prev = json.load(open(os.path.join(a.out, "summary.json")))
 json.dump(dict(box_m=a.box, particles=count, optical_depth=TAU, omega0=OMEGA0, v_hill=V_HILL, seeds=a.seeds,
-               segment_orbits=a.segment, max_orbits=a.max_orbits, cap=a.cap, hot=a.hot, cold=a.cold,
-               cpu_seconds=prev.get("cpu_seconds", 0.0) + cpu, groups=table),
+               segment_orbits=a.segment, max_orbits=dict(planar=a.max_orbits[0], three_d=a.max_orbits[1]), cap=a.cap, hot=a.hot, cold=a.cold,
+               cpu_seconds=prev.get("cpu_seconds", 0.0) + cpu, groups=table,
+               e_critical_3d=e_cr, e_where_sigma_is_v_hill_planar=v_hill_crossing()),
           open(os.path.join(a.out, "summary.json"), "w"), indent=1, default=float)
 
 import matplotlib
@@ -270,9 +307,10 @@ for ax, d in zip(axes[0], a.dims):
     ax.set_yscale("log")
     ax.set_xlabel("orbits")
     ax.set_ylabel("sigma_y (mm/s), orbit mean")
-    ax.set_title(f"{'planar' if d == 2 else '3D'} ring, tau = {TAU:.4f}: hot (solid) and cold (dashed) starts; dotted: v_H")
+    ax.set_title(f"{'planar' if d == 2 else '3D'}, tau = {TAU:.4f}: hot (solid), cold (dashed); v_H (dotted)", fontsize=10)
     ax.legend(fontsize=8)
 fig.tight_layout()
 fig.savefig(os.path.join(a.out, "sigma.png"), dpi=110)
 for t in table:
     print(t)
+print(f"3D: hot growth rate changes sign at e = {e_cr}; planar: sigma_y = v_H at e = {v_hill_crossing()}")
