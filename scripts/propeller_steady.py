@@ -144,7 +144,15 @@ for e in a.e:
         y = 0.5 * (edges[1:] + edges[:-1])
         deficit = np.clip(1 - h1 / np.maximum(h2, 1), 0, None)
         centroid = float(np.sum(y * deficit) / np.sum(deficit)) / R_HILL if deficit.sum() > 0 else float("nan")
+        import h5py
+        with h5py.File(os.path.join(d, "observables.h5md"), "r") as f:  # LE1's population against LE2's
+            t_obs = f["observables/le1_particles/time"][:].ravel()
+            n1 = f["observables/le1_particles/value"][:].ravel()
+            n_all = f["observables/particles/value"][:].ravel()
+        late = t_obs >= T0
+        pop = n1[late] / (n_all[late] - n1[late])
         run = dict(e=e, seed=s, frames=len(rows), blocks=len(bm), gap_centroid_rH=centroid,
+                   le1_over_le2_min=float(pop.min()), le1_over_le2_max=float(pop.max()), le1_over_le2_last=float(pop[-1]),
                    **{q: float(np.mean([b[q] for b in bm.values()])) for q in ("sigma_ring", "dv_y", "depth", "null")},
                    null_sd=float(np.std([r["null"] for r in rows], ddof=1)),
                    depth_block_sd=float(np.std([b["depth"] for b in bm.values()], ddof=1)) if len(bm) > 1 else float("nan"),
@@ -163,7 +171,8 @@ for e in a.e:
                       null_sd=float(np.mean([r["null_sd"] for r in seeds]))))
 
 with open(os.path.join(a.out, "runs.csv"), "w") as f:
-    keys = ["e", "seed", "frames", "last_time", "sigma_ring", "dv_y", "depth", "null", "null_sd", "depth_block_sd", "gap_centroid_rH"]
+    keys = ["e", "seed", "frames", "last_time", "sigma_ring", "dv_y", "depth", "null", "null_sd", "depth_block_sd", "gap_centroid_rH",
+            "le1_over_le2_min", "le1_over_le2_max", "le1_over_le2_last"]
     f.write(",".join(keys) + "\n")
     for r in per_run:
         f.write(",".join(str(r[k]) for k in keys) + "\n")
