@@ -130,3 +130,39 @@ TEST(LeesEdwardsRanks, PropellerPatchModifiedBoundariesMultiRate) {
                                         "time.long_step=20.0"},
                       5000, 0.0);
 }
+
+TEST(LeesEdwardsRanks, ThickRingMultiRateSlabsAlongX) {
+  // A 3D ring gas (vertical tide, 1 mm/s) under the multi-rate integrator. The free particles'
+  // drift bound decides the rebuild steps, and with them when the free particles are moved to
+  // the present (exact epicycle maps over other intervals differ in the last bits): it must
+  // combine maxima over all ranks. Built from each rank's own maxima it was smaller on more
+  // ranks, rebuilt at other steps, and 423 of the ~600 particles differed after 1,000 steps.
+  const char* ring = R"(
+seed = 11
+modules = ["contact", "hill"]
+[domain]
+lo = [-100.0, -100.0, -16.0]
+hi = [100.0, 100.0, 16.0]
+boundary = ["periodic", "lees_edwards", "open"]
+slab_axis = "x"
+[hill]
+saturn_mass = 5.68e26
+orbit_radius = 1.3e8
+[[species]]
+density = 400.0
+radius = 1.0
+t_c = 50.0
+e = 0.5
+[particles]
+init = "random"
+count = 600
+shear_flow = true
+velocity_sigma = 0.001
+[time]
+dt = 2.0
+end = 1.0e6
+integrator = "multirate"
+long_step = 20.0
+)";
+  compare_rank_counts(ring, {}, 1000, 0.0);
+}

@@ -453,6 +453,24 @@ TEST(Snapshot, SelfGravityUnderModifiedLeesEdwardsRestartsBitwise) {
   expect_restart_bitwise(scene);
 }
 
+// Self-gravity under the multi-rate integrator: the snapshot (step 500) falls on a long step's
+// end (10 steps); the restart solves the mesh and the short range there afresh and must kick
+// with the same bits as the uninterrupted run's forces of that step; then under the modified
+// Lees-Edwards boundaries too.
+std::string multirate_gravity_ring(bool fed) {
+  std::string scene = kGravityRing;
+  scene.replace(scene.find("every = 3"), 9, "");
+  scene.replace(scene.find("n_c = 10"), 8, "n_c = 10\nintegrator = \"multirate\"\nlong_step = 20.0");
+  if (fed) scene.replace(scene.find("boundary = "), 0, "modified_lees_edwards = true\n");
+  return scene;
+}
+
+TEST(Snapshot, SelfGravityUnderTheMultiRateIntegratorRestartsBitwise) { expect_restart_bitwise(multirate_gravity_ring(false)); }
+
+TEST(Snapshot, SelfGravityUnderMultiRateAndModifiedLeesEdwardsRestartsBitwise) {
+  expect_restart_bitwise(multirate_gravity_ring(true));
+}
+
 // A module's own per-particle column (ParticleStore::declare) needs no code of its own to
 // travel: with its particle between the ranks, to the ghosts every step, and through a
 // snapshot and a restart. The values are a known function of the id and the step (the owner

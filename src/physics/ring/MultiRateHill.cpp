@@ -8,6 +8,7 @@
 #include "core/Simulation.hpp"
 #include "physics/ring/HillFrame.hpp"
 #include "physics/ring/Moonlet.hpp"
+#include "physics/ring/SelfGravity.hpp"
 
 namespace cassini {
 
@@ -43,8 +44,10 @@ ModuleKind MultiRateHill::kind() {
     if (!c.has_module("hill") || c.get<HillSettings>().form != "linear")
       f.fail("time.integrator", "\"verlet\": \"multirate\" needs module \"hill\" with hill.form = \"linear\" (its free particles follow the exact linear epicycle)");
     for (const auto& m : c.modules)
-      if (m != "contact" && m != "hill" && m != "moonlet")
-        f.fail("time.integrator", "\"verlet\" with module \"" + m + "\" (\"multirate\" supports contact, hill and moonlet)");
+      if (m != "contact" && m != "hill" && m != "moonlet" && m != "self-gravity")
+        f.fail("time.integrator", "\"verlet\" with module \"" + m + "\" (\"multirate\" supports contact, hill, moonlet and self-gravity)");
+    if (c.has_module("self-gravity") && c.get<SelfGravity::Settings>().every != 1)
+      f.fail("self_gravity.every", "1 (or no key) with time.integrator = \"multirate\": the mesh is solved once a long step (time.long_step)");
     const double t0 = 2 * 3.141592653589793 / c.get<HillSettings>().omega0();
     Settings s;
     s.long_step = f.positive("time.long_step", std::max(c.dt, std::round(t0 / 1000 / c.dt) * c.dt));
@@ -55,6 +58,8 @@ ModuleKind MultiRateHill::kind() {
   auto make = [](Simulation& sim) {
     auto m = std::make_unique<MultiRateHill>(sim.cfg, sim.dt);
     m->mode_column_ = sim.particles.declare("multirate_mode", 1, true);  // ghosts' modes decide who is awake
+    if (sim.cfg.has_module("self-gravity"))  // its short range needs free partners where they are now
+      m->drift_column_ = sim.particles.declare("multirate_drift", 3, true);
     return m;
   };
   return {"multirate", {"hill"}, read, make};
@@ -84,11 +89,45 @@ std::string MultiRateHill::name() const {
 
 void MultiRateHill::setup(Simulation& sim) {
   moonlet_ = sim.find<Moonlet>();
+  gravity_ = sim.find<SelfGravity>();
   sim.lazy_column = static_cast<int>(mode_column_);  // kFree = 0: partners the force loops skip between long steps
 }
 
 Vec3 MultiRateHill::moonlet_acceleration(const ParticleStore& p, std::size_t i) const {
   return moonlet_ ? moonlet_->acceleration(p, i) : Vec3::Zero();
+}
+
+Vec3 MultiRateHill::slow_acceleration(const ParticleStore& p, std::size_t i, bool free) const {
+  if (!gravity_) return free ? moonlet_acceleration(p, i) : Vec3(Vec3::Zero());
+  if (!free) return gravity_->mesh_acceleration(i);
+  return moonlet_acceleration(p, i) + gravity_->mesh_acceleration(i) + gravity_->short_acceleration(i);
+}
+
+// A free particle's displacement since t_ref is the same for all its images (the epicycle map
+// commutes with the shear's: the halo moves a sheared image's offset itself), so the owner
+// computes it (record_drift, every step of a long step) and the ghosts carry it in a column.
+const Vec3* MultiRateHill::present_positions(const Simulation& sim) {
+  const ParticleStore& p = sim.particles;
+  if (!in_long_step_ || sim.time - t_ref_ <= 0) return p.x.data();
+  present_.assign(p.x.begin(), p.x.end());
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (mode_of(p, i) == kFree) {
+      const double* d = p.column(drift_column_, i);
+      present_[i] += Vec3(d[0], d[1], d[2]);
+    }
+  return present_.data();
+}
+
+void MultiRateHill::record_drift(Simulation& sim) {
+  ParticleStore& p = sim.particles;
+  const Epicycle E(omega_, omega_z_, sim.time - t_ref_, planar_);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (mode_of(p, i) != kFree) continue;
+    Vec3 x = p.x[i], v = p.v[i];
+    E.advance(x, v);
+    double* d = p.column(drift_column_, i);
+    for (int k = 0; k < 3; ++k) d[k] = x[k] - p.x[i][k];
+  }
 }
 
 bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) const {
@@ -123,7 +162,7 @@ bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) co
     const double tau = u2 > 0 ? std::clamp(-d.dot(u) / u2, 0.0, D) : 0.0;
     const double closest = (d + tau * u).norm();
     const double bend = 3 * W * W * std::abs(d[1]) + Wz2 * std::abs(d[2]) + 2 * W * speed + ai_norm +
-                        moonlet_acceleration(p, j).norm();
+                        moonlet_acceleration(p, j).norm() + gravity_bound_;
     if (closest - R < bend * D * D + 4 * speed * dt_) return true;
   }
   return false;
@@ -138,12 +177,13 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   t0_ = sim.time - dt_;  // the step about to be taken starts here; every particle is synchronised
   t_ref_ = t0_;
   delta_ = double(last - s + 1) * dt_;
+  if (gravity_) gravity_bound_ = 2 * gravity_->synchronise(sim);  // collective: every rank begins a long step here
   // Ghosts as their owners are now (the last step's kicks and moves came after its update), so
   // that each side of a pair sees the same numbers whatever the rank count.
   sim.halo.update_ghosts(p);
   for (std::size_t i = 0; i < p.nlocal; ++i) set_mode(p, i, needs_contact_steps(sim, i) ? kContact : kFree);
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (mode_of(p, i) == kFree) p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
+    if (mode_of(p, i) == kFree || gravity_) p.v[i] += (0.5 * delta_) * slow_acceleration(p, i, mode_of(p, i) == kFree);
   in_long_step_ = true;
   // Fast free particles are moved every step (exact map, cheap), so that the drift bound of the
   // rest allows about a long step between rebuilds: epicycle speed above skin / (4 Delta).
@@ -169,6 +209,15 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
     free_speed_ = std::max(free_speed_, std::sqrt(w * w + v[1] * v[1]));
     if (!planar_) free_vz_ = std::max(free_vz_, std::hypot(v[2], omega_z_ * x[2]));
   }
+  // The bound combines the maxima: taken over every rank's particles, so that it (and with it
+  // the steps at which the list is rebuilt and the free particles materialised) is the same on
+  // any rank count. A rank's own maxima gave a smaller bound on more ranks.
+  double m[4] = {free_drift_, free_dy_, free_speed_, free_vz_};
+  MPI_Allreduce(MPI_IN_PLACE, m, 4, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  free_drift_ = m[0];
+  free_dy_ = m[1];
+  free_speed_ = m[2];
+  free_vz_ = m[3];
 }
 
 void MultiRateHill::make_lists(const ParticleStore& p) {
@@ -187,7 +236,10 @@ void MultiRateHill::materialize(Simulation& sim) {
   if (tau <= 0) return;
   const Epicycle E(omega_, omega_z_, tau, planar_);
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (mode_of(p, i) == kFree) E.advance(p.x[i], p.v[i]);
+    if (mode_of(p, i) == kFree) {
+      E.advance(p.x[i], p.v[i]);
+      if (drift_column_ != ParticleStore::kNoColumn) std::fill_n(p.column(drift_column_, i), 3, 0.0);
+    }
 }
 
 void MultiRateHill::pre_rebuild(Simulation& sim) {
@@ -236,6 +288,7 @@ void MultiRateHill::find_watched(const Simulation& sim) {
 
 void MultiRateHill::initial_integrate(Simulation& sim) {
   if (!in_long_step_) begin_long_step(sim);
+  if (drift_column_ != ParticleStore::kNoColumn) record_drift(sim);  // before this step's ghost update
   ParticleStore& p = sim.particles;
   const double dt = dt_, h = 0.5 * dt_, stream = sim.stream, c = rot_c_, s = rot_s_;
   const bool planar = planar_;
@@ -348,8 +401,11 @@ void MultiRateHill::final_integrate(Simulation& sim) {
     Vec3& v = p.v[i];
     if (mode_of(p, i) == kWoken) {
       // Its state is the free one at this time, full step. It had delta/2 of the moonlet's
-      // impulse at the long step's start; it is owed `since` of it.
-      v += (since - 0.5 * delta_) * moonlet_acceleration(p, i);
+      // impulse at the long step's start; it is owed `since` of it. So with gravity's short
+      // range (its mesh: Delta/2 at each end, free or not).
+      Vec3 owed = moonlet_acceleration(p, i);
+      if (gravity_) owed += gravity_->short_acceleration_now(i);
+      v += (since - 0.5 * delta_) * owed;
       set_mode(p, i, kContact);
       continue;
     }
@@ -362,8 +418,11 @@ void MultiRateHill::final_integrate(Simulation& sim) {
   }
   if (sim.step_count != last_step_) return;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (on_contact_steps(mode_of(p, i))) continue;
-    p.v[i] += (0.5 * delta_) * moonlet_acceleration(p, i);
+    if (on_contact_steps(mode_of(p, i))) {
+      if (gravity_) p.v[i] += (0.5 * delta_) * slow_acceleration(p, i, false);
+      continue;
+    }
+    p.v[i] += (0.5 * delta_) * slow_acceleration(p, i, true);
     if (moonlet_ && Moonlet::feels(p, i)) {
       const Vec3& x = p.x[i];
       const double r = std::sqrt(x[0] * x[0] + x[1] * x[1] + (planar_ ? 0.0 : x[2] * x[2]));

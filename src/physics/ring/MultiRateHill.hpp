@@ -32,6 +32,13 @@
 // the step's start (wake-ups are sent to the ghosts before the forces), so results are the
 // same on any rank count. Lees-Edwards crossings, ghosts, migration and snapshots (at long-step
 // ends) work as with the plain scheme.
+//
+// Self-gravity (SelfGravity.hpp says how it splits): its mesh is a slow force for every particle
+// and its short range one for the free particles, kicked Delta/2 at both ends of the long step
+// with the moonlet's; particles on contact steps get the short range every step. The
+// classification's bend bound adds twice the largest gravitational acceleration in the box (a
+// maximum over all ranks: the same on any rank count), so that two free particles still cannot
+// meet within the long step.
 #include <cstdint>
 #include <vector>
 
@@ -43,6 +50,7 @@
 namespace cassini {
 
 class Moonlet;
+class SelfGravity;
 
 class MultiRateHill : public Module {
  public:
@@ -62,6 +70,12 @@ class MultiRateHill : public Module {
   void final_integrate(Simulation& sim) override;
   // Coriolis as a body force (stress bookkeeping), as the plain integrator reports it.
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
+
+  // Every particle's position now, owned and ghosts (those of free particles brought forward
+  // from t_ref on their epicycles; a ghost that is a sheared image moves as its owner does),
+  // indexed as the particles. Valid until the particles move or are rebuilt. Needs the
+  // drift column (declared when the scene has self-gravity).
+  const Vec3* present_positions(const Simulation& sim);
 
   // The exact linear-Hill (epicycle) map over time t, in place. Public for the tests.
   struct Epicycle {
@@ -106,6 +120,14 @@ class MultiRateHill : public Module {
   bool planar_;
   double gm_ = 0, moonlet_radius_ = 0;
   const Moonlet* moonlet_ = nullptr;
+  SelfGravity* gravity_ = nullptr;
+  double gravity_bound_ = 0;  // twice the largest gravitational acceleration at the long step's start
+  std::vector<Vec3> present_;  // present_positions()' scratch
+  // With self-gravity: each free particle's displacement since t_ref (a column the ghosts carry).
+  std::size_t drift_column_ = ParticleStore::kNoColumn;
+  void record_drift(Simulation& sim);
+  // Kicks of a long step's ends: the moonlet's and (free particles) gravity's, or (on contact steps) the mesh's.
+  Vec3 slow_acceleration(const ParticleStore& p, std::size_t i, bool free) const;
   double rot_c_, rot_s_;  // Coriolis rotation over dt/2 for the contact steps
 
   bool in_long_step_ = false;

@@ -12,6 +12,7 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
+#include "physics/ring/MultiRateHill.hpp"
 
 namespace cassini {
 
@@ -593,20 +594,22 @@ void SelfGravity::list_partners(const ParticleStore& p) {
   }
 }
 
+void SelfGravity::setup(Simulation& sim) { multirate_ = sim.find<MultiRateHill>(); }
+
 void SelfGravity::post_rebuild(Simulation& sim) {
   if (short_) list_partners(sim.particles);
 }
 
 // Partners in list (id) order; the cost is the square root and the division per partner
 // (~6 ns here): ~150 partners within 35 m in cases/gravity-wakes, every step.
-Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi) const {
-  const double xi = p.x[i][0], yi = p.x[i][1], zi = p.x[i][2];
+Vec3 SelfGravity::short_range(const ParticleStore& p, const Vec3* X, std::size_t i, double* phi) const {
+  const double xi = X[i][0], yi = X[i][1], zi = X[i][2];
   const double r2max = reach_ * reach_, G = kGravitationalConstant, to_s = kTable / r2max;
   const double* w_table = w_table_.data();
   double ax = 0, ay = 0, az = 0, u = 0;
   for (std::uint32_t q = partner_start_[i]; q < partner_start_[i + 1]; ++q) {
     const std::uint32_t j = partner_[q];
-    const double dx = p.x[j][0] - xi, dy = p.x[j][1] - yi, dz = p.x[j][2] - zi;
+    const double dx = X[j][0] - xi, dy = X[j][1] - yi, dz = X[j][2] - zi;
     const double r2 = dx * dx + dy * dy + dz * dz;
     if (r2 >= r2max) continue;
     const double r = std::sqrt(r2), s = r2 * to_s;
@@ -624,6 +627,10 @@ Vec3 SelfGravity::short_range(const ParticleStore& p, std::size_t i, double* phi
 }
 
 void SelfGravity::force(Simulation& sim) {
+  if (multirate_) {
+    force_multirate(sim);
+    return;
+  }
   ParticleStore& p = sim.particles;
   const Simulation::TargetList T = sim.target_list();
   const bool mesh = sim.step_count % every_ == 0;
@@ -632,7 +639,10 @@ void SelfGravity::force(Simulation& sim) {
   const double weight = static_cast<double>(every_);  // the mesh's impulse of `every` steps
   // Kept for the bookkeeping later in this step (the energy guard, a snapshot's body forces):
   // the positions do not change before the step ends.
-  if (mesh) cached_accel_.assign(p.nlocal, Vec3::Zero());
+  if (mesh) {
+    cached_mesh_.assign(p.nlocal, Vec3::Zero());
+    cached_short_.assign(p.nlocal, Vec3::Zero());
+  }
   double u = 0;
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
@@ -642,13 +652,18 @@ void SelfGravity::force(Simulation& sim) {
     if (!mesh) continue;
     const Vec3 a_mesh = field(p.x[i], copy_of(p, i));
     p.f[i] += weight * p.mass[i] * a_mesh;
-    cached_accel_[i] = a_mesh + a_short;
+    cached_mesh_[i] = a_mesh;
+    cached_short_[i] = a_short;
     u += 0.5 * p.mass[i] * (potential(p.x[i], copy_of(p, i)) + near);
   }
   apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!mesh) return;
   cached_potential_ = u;
   cached_step_ = sim.all_targets ? sim.step_count : -1;
+  report(sim);
+}
+
+void SelfGravity::report(Simulation& sim) const {
   std::ostringstream os;
   os << "{\"solves\": " << solves_ << ", \"mesh_seconds\": " << solve_seconds_
      << ", \"interpolation_and_pairs_seconds\": " << apply_seconds_ << ", \"mesh_bytes_per_rank\": " << mesh_bytes_
@@ -658,13 +673,68 @@ void SelfGravity::force(Simulation& sim) {
   sim.set_result("self_gravity", os.str());
 }
 
+// The mesh and the short range of every owned particle at the present positions (all
+// synchronised), kept as the state of `step`; the short range also goes into the forces if asked.
+void SelfGravity::solve_all(Simulation& sim, long step, bool add_short_to_forces) {
+  ParticleStore& p = sim.particles;
+  solve(sim, false);
+  const auto start = std::chrono::steady_clock::now();
+  cached_mesh_.resize(p.nlocal);
+  cached_short_.resize(p.nlocal);
+  double u = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    double near = 0;
+    cached_short_[i] = short_ ? short_range(p, i, &near) : Vec3(Vec3::Zero());
+    cached_mesh_[i] = field(p.x[i], copy_of(p, i));
+    if (add_short_to_forces) p.f[i] += p.mass[i] * cached_short_[i];
+    u += 0.5 * p.mass[i] * (potential(p.x[i], copy_of(p, i)) + near);
+  }
+  apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  cached_potential_ = synced_potential_ = u;
+  synced_ = true;
+  cached_step_ = step;
+  report(sim);
+}
+
+// A long step's end (every particle synchronised: all are targets) solves for everyone; the
+// integrator gives the kicks. Between, the particles on contact steps get their short range.
+void SelfGravity::force_multirate(Simulation& sim) {
+  if (sim.all_targets) {
+    solve_all(sim, sim.step_count, true);  // the short range enters the contact steps' Verlet kicks; free particles' f is unused
+    short_now_ = cached_short_;             // a particle woken at this step is owed its short range
+    return;
+  }
+  if (!short_) return;
+  ParticleStore& p = sim.particles;
+  const auto start = std::chrono::steady_clock::now();
+  const Vec3* X = multirate_->present_positions(sim);
+  short_now_.resize(p.nlocal);
+  const Simulation::TargetList T = sim.target_list();
+  for (std::size_t t = 0; t < T.count; ++t) {
+    const std::size_t i = T[t];
+    short_now_[i] = short_range(p, X, i);
+    p.f[i] += p.mass[i] * short_now_[i];
+  }
+  apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+double SelfGravity::synchronise(Simulation& sim) {
+  // The last step's force() solved at these very positions, unless a rebuild came between.
+  if (cached_step_ != sim.step_count - 1) solve_all(sim, sim.step_count - 1, false);
+  double largest = 0;
+  for (std::size_t i = 0; i < sim.particles.nlocal; ++i)
+    largest = std::max(largest, (cached_mesh_[i] + cached_short_[i]).norm());
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  return largest;
+}
+
 // Stress and energy bookkeeping (collective calls) solve the field at the present positions
 // first: between solves the particles have moved, perhaps into layers the last solve left out.
 // That does not change the run: force() solves again at its own steps.
 void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   if (cached_step_ == sim.step_count) {  // force() solved at these very positions
-    for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * cached_accel_[i];
+    for (std::size_t i = 0; i < p.nlocal; ++i) F[i] += p.mass[i] * (cached_mesh_[i] + cached_short_[i]);
     return;
   }
   const_cast<SelfGravity*>(this)->solve(sim, false);
@@ -674,6 +744,10 @@ void SelfGravity::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) c
 
 double SelfGravity::potential_energy(const Simulation& sim) const {
   if (cached_step_ == sim.step_count) return cached_potential_;
+  // Under the multi-rate integrator the free particles' stored states are of another time
+  // between long steps: the potential is that of the last long step's end (the energy guard's
+  // bound holds it to within a long step; a solve here cost 20 % of the wakes scene's mesh time).
+  if (multirate_ && synced_) return synced_potential_;
   const_cast<SelfGravity*>(this)->solve(sim, false);
   const ParticleStore& p = sim.particles;
   double u = 0;

@@ -69,6 +69,17 @@
 // an impulse every n dt it drives a resting pair's contact oscillation, in resonance where n dt
 // is a multiple of the oscillation's period 2 t_c (cases/gravity-wakes: 20 steps = 2 t_c pumped
 // a resting pair from 1.4e-6 to 6.4e-5 m/s, which the Bridges law leaves undamped).
+//
+// Under the multi-rate integrator (time.integrator = "multirate", MultiRateHill.hpp) the long
+// step takes the place of `every`. At its ends, where every particle is synchronised, the mesh
+// is solved and the short range summed for all. The mesh is a slow force for everyone: a kick
+// of Delta/2 at each end (r-RESPA, as above with n dt = Delta). A free particle also gets its
+// short range as those kicks (its whole gravity is then smooth on the long step: the pull of a
+// neighbour changes on the ring's gravitational time ~ 1/sqrt(G rho) ~ 1/Omega, ~150 long steps).
+// A particle on contact steps gets its short range every contact step, as under the plain
+// scheme, from its partners where they are now: free partners are brought forward on their
+// epicycles (MultiRateHill::present_positions). A particle woken mid long step had Delta/2 of
+// its short range at the start and is owed `since` of it (as the moonlet's impulse).
 #include <array>
 #include <cmath>
 #include <complex>
@@ -85,6 +96,7 @@
 namespace cassini {
 
 struct Decomposition;
+class MultiRateHill;
 
 class SelfGravity : public Module {
  public:
@@ -106,6 +118,7 @@ class SelfGravity : public Module {
   SelfGravity(const SelfGravity&) = delete;
   SelfGravity& operator=(const SelfGravity&) = delete;
   std::string name() const override { return "self-gravity"; }
+  void setup(Simulation& sim) override;
   unsigned stages() const override { return kForce | kRebuild; }
   // A rebuild reorders the particles: the values kept from the last solve no longer apply, and
   // the short range's partners are listed again.
@@ -126,7 +139,21 @@ class SelfGravity : public Module {
   double potential(const Vec3& x, int copy = 0) const;
   // The short-range acceleration of particle i (owned) from its partners within r_s, owned or
   // ghosts, and (if asked) its short-range potential: from the partners listed at the last rebuild.
-  Vec3 short_range(const ParticleStore& p, std::size_t i, double* phi = nullptr) const;
+  Vec3 short_range(const ParticleStore& p, std::size_t i, double* phi = nullptr) const {
+    return short_range(p, p.x.data(), i, phi);
+  }
+  // ... with the partners at positions X (indexed as the particles).
+  Vec3 short_range(const ParticleStore& p, const Vec3* X, std::size_t i, double* phi = nullptr) const;
+
+  // For the multi-rate integrator. At a long step's boundary (every particle synchronised, the
+  // step after the one that ended the last long step): the mesh and short-range accelerations
+  // of every owned particle, from the last step's forces or solved now (collective); returns the
+  // largest |acceleration| over all ranks (the same on any rank count: a maximum).
+  double synchronise(Simulation& sim);
+  const Vec3& mesh_acceleration(std::size_t i) const { return cached_mesh_[i]; }
+  const Vec3& short_acceleration(std::size_t i) const { return cached_short_[i]; }
+  // The short range of an owned particle on contact steps, from this step's force().
+  const Vec3& short_acceleration_now(std::size_t i) const { return short_now_[i]; }
 
   long solves() const { return solves_; }
   double solve_seconds() const { return solve_seconds_; }
@@ -204,11 +231,19 @@ class SelfGravity : public Module {
   void* col_backward_ = nullptr;
   long solves_ = 0;
   double solve_seconds_ = 0, apply_seconds_ = 0;  // mesh solves; interpolation and short range
-  // The last force() solve's accelerations (per owned particle) and potential energy, valid
-  // until the step ends or a rebuild reorders the particles.
+  // The last force() solve's accelerations (per owned particle: mesh and short range) and
+  // potential energy, valid until the step ends or a rebuild reorders the particles.
   long cached_step_ = -1;
-  std::vector<Vec3> cached_accel_;
+  std::vector<Vec3> cached_mesh_, cached_short_;
   double cached_potential_ = 0;
+  // Under the multi-rate integrator: its present positions, and the short range of this step's targets.
+  MultiRateHill* multirate_ = nullptr;
+  std::vector<Vec3> short_now_;
+  double synced_potential_ = 0;  // at the last long step's end (solve_all), kept through rebuilds
+  bool synced_ = false;
+  void force_multirate(Simulation& sim);
+  void solve_all(Simulation& sim, long step, bool add_short_to_forces);  // mesh + short for every owned particle, cached
+  void report(Simulation& sim) const;  // summary.json's "self_gravity"
 };
 
 }  // namespace cassini
