@@ -286,11 +286,19 @@ TEST(SelfGravity, CircularBinaryKeepsItsRadiusAndEnergy) {
   // integrator's own error is ~1e-7 there): the pair force must be central and a gradient for
   // the orbit-averaged r and KE to stay put. Goal 1e-4. At split = h the mesh's error is neither:
   // r/r0 fell by 4 % at 1.5 h.
+  // Last, the 3 h binary at split = 2.5 h, where the mesh carries less of the pull: the goal is
+  // met there (the knob for scenes that need it; the default stays at 2 h, docs/rings.md).
   if (!root()) return;
   const double m = 1.0e9, h = 6.25;
-  for (const double r_h : {1.0, 1.5, 2.0, 3.0}) {
+  struct Case {
+    double r_h, split_h;
+  };
+  for (const Case c : {Case{1.0, 2.0}, Case{1.5, 2.0}, Case{2.0, 2.0}, Case{3.0, 2.0}, Case{3.0, 2.5}}) {
+    const double r_h = c.r_h;
     const double r0 = r_h * h, period = 2 * kPi * std::sqrt(r0 * r0 * r0 / (2 * G * m));
-    auto sim = two_bodies(r0, 0.7, period / 2000, {}, 1.0);
+    std::vector<std::string> split;
+    if (c.split_h != 2.0) split.push_back("self_gravity.split=" + std::to_string(c.split_h * h));
+    auto sim = two_bodies(r0, 0.7, period / 2000, split, 1.0);
     const double ke0 = kinetic(*sim);
     // orbit means (the mesh's error varies with the pair's angle to the grid, a wobble of
     // ~1 % of the force that averages out over an orbit: what must not happen is a drift)
@@ -307,14 +315,15 @@ TEST(SelfGravity, CircularBinaryKeepsItsRadiusAndEnergy) {
       dr = std::max(dr, std::abs(r_mean[o] / r_mean[0] - 1));
       dke = std::max(dke, std::abs(ke_mean[o] / ke_mean[0] - 1));
     }
-    std::printf("binary at %.1f h: orbit means drift by |dr/r| = %.2e, |dKE/KE| = %.2e over 10 orbits (wobble %.2e)\n", r_h, dr,
-                dke, wobble);
+    std::printf("binary at %.1f h, split %.1f h: orbit means drift by |dr/r| = %.2e, |dKE/KE| = %.2e over 10 orbits (wobble %.2e)\n",
+                r_h, c.split_h, dr, dke, wobble);
     // measured: 7e-8 / 2e-6, 3e-6 / 2e-6, 5e-5 / 8e-5 at 1, 1.5, 2 h; 2.4e-4 / 6.2e-4 at 3 h (where
     // the mesh carries half the pull, and its ~1 % error is not a gradient: over 30 orbits the
-    // mean r there wanders by 3 %). split = h: 0.5, 0.036, 0.054, 0.011 in r.
-    const double bound = r_h <= 2 ? 1e-4 : 1e-3;
-    EXPECT_LT(dr, bound) << r_h << " h";
-    EXPECT_LT(dke, bound) << r_h << " h";
+    // mean r there wanders by 3 %); 3.5e-5 / 9.6e-5 at 3 h with split 2.5 h. split = h: 0.5,
+    // 0.036, 0.054, 0.011 in r.
+    const double bound = r_h <= 2 || c.split_h > 2 ? 1e-4 : 1e-3;
+    EXPECT_LT(dr, bound) << r_h << " h, split " << c.split_h << " h";
+    EXPECT_LT(dke, bound) << r_h << " h, split " << c.split_h << " h";
   }
 }
 
