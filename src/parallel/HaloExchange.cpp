@@ -314,13 +314,13 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
 
   // First exchange carries the full description of each ghost; later ones only the motion.
   const int extra = p.ghost_column_width();  // the modules' columns, last
-  const std::size_t width = 10 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0) + extra;
+  const std::size_t width = 11 + (p.rotation ? 3 : 0) + (p.copies ? 1 : 0) + extra;
   auto describe = [&](const Image& im, double* b) {
     const std::size_t i = im.index;
     const Vec3 xs = p.x[i] + shift(im);
-    const double head[10] = {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
-                             p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2]};
-    b = std::copy_n(head, 10, b);
+    const double head[11] = {id_bits(p.id[i]), double(p.species[i]), p.radius[i], p.mass[i], xs[0], xs[1], xs[2],
+                             p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2], double(im.k[1])};
+    b = std::copy_n(head, 11, b);
     if (p.rotation) b = std::copy_n(p.omega[i].data(), 3, b);
     if (p.copies) *b++ = im.copy;
     for (const auto& c : p.module_columns)
@@ -334,7 +334,8 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
     p.inv_mass[j] = 1.0 / b[3];
     p.x[j] = Vec3(b[4], b[5], b[6]);
     p.v[j] = Vec3(b[7], b[8], b[9]);
-    if (p.rotation) p.omega[j] = Vec3(b[10], b[11], b[12]);
+    ghost_sheared_[j - p.nlocal] = static_cast<std::int8_t>(b[10]);
+    if (p.rotation) p.omega[j] = Vec3(b[11], b[12], b[13]);
     if (p.copies) p.le_copy[j] = static_cast<std::uint8_t>(b[width - extra - 1]);
     const double* q = b + width - extra;
     for (auto& c : p.module_columns)
@@ -362,6 +363,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   recv_doubles_.resize(dom_.nranks);
   for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
   p.resize_ghosts(in.size() / width + send_[me].size());
+  ghost_sheared_.resize(p.nghost());
   // Ghosts by source rank, in send order (update_ghosts relies on it).
   scratch_.resize(width);
   const double* b = in.data();

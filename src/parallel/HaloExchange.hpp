@@ -68,6 +68,11 @@ class HaloExchange {
   //  - kInflowColumn: 1 while an LE2 particle is shown to LE1 beyond LE1's inflow face.
   static constexpr const char* kEnteredColumn = "le_entered";
   static constexpr const char* kInflowColumn = "le_inflow_image";
+  // How many sheared y images ghost j is of its particle (k_y: its y is the owner's + k_y L_y,
+  // its v_x the owner's + k_y gamma L_y); 0 for owned particles and images across x or z only.
+  int sheared_image(const ParticleStore& p, std::size_t j) const {
+    return j < p.nlocal ? 0 : ghost_sheared_[j - p.nlocal];
+  }
   // Traffic to other ranks since the run started (ghost updates, ghost builds, migration):
   // bytes and non-empty messages, for docs/scaling.md's model.
   std::int64_t bytes_sent = 0, messages_sent = 0;
@@ -100,6 +105,7 @@ class HaloExchange {
   std::vector<int> recv_ghosts_;          // ghosts received per source rank
   std::vector<char> changed_;             // update_ghosts_of: owned particles to send (all 0 between calls)
   std::vector<int> recv_doubles_;         // per-step update message sizes
+  std::vector<std::int8_t> ghost_sheared_;  // per ghost slot: its k_y (sheared_image)
   std::vector<int> recv_others_;          // the same without this rank's own images
   std::vector<double> scratch_;           // one own image, written straight to its ghost slot
   double shear_base_ = 0;                 // offset - wrapped offset at the last build

@@ -58,8 +58,6 @@ ModuleKind MultiRateHill::kind() {
   auto make = [](Simulation& sim) {
     auto m = std::make_unique<MultiRateHill>(sim.cfg, sim.dt);
     m->mode_column_ = sim.particles.declare("multirate_mode", 1, true);  // ghosts' modes decide who is awake
-    if (sim.cfg.has_module("self-gravity"))  // its short range needs free partners where they are now
-      m->drift_column_ = sim.particles.declare("multirate_drift", 3, true);
     return m;
   };
   return {"multirate", {"hill"}, read, make};
@@ -103,31 +101,27 @@ Vec3 MultiRateHill::slow_acceleration(const ParticleStore& p, std::size_t i, boo
   return moonlet_acceleration(p, i) + gravity_->mesh_acceleration(i) + gravity_->short_acceleration(i);
 }
 
-// A free particle's displacement since t_ref is the same for all its images (the epicycle map
-// commutes with the shear's: the halo moves a sheared image's offset itself), so the owner
-// computes it (record_drift, every step of a long step) and the ghosts carry it in a column.
-const Vec3* MultiRateHill::present_positions(const Simulation& sim) {
-  const ParticleStore& p = sim.particles;
-  if (!in_long_step_ || sim.time - t_ref_ <= 0) return p.x.data();
-  present_.assign(p.x.begin(), p.x.end());
-  for (std::size_t i = 0; i < p.size(); ++i)
-    if (mode_of(p, i) == kFree) {
-      const double* d = p.column(drift_column_, i);
-      present_[i] += Vec3(d[0], d[1], d[2]);
-    }
-  return present_.data();
+MultiRateHill::Present MultiRateHill::present(const Simulation& sim) const {
+  const double tau = sim.time - t_ref_;
+  return {sim.particles, sim.halo, *this, Epicycle(omega_, omega_z_, tau, planar_), sim.domain.length[1],
+          sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0, in_long_step_ && tau > 0};
 }
 
-void MultiRateHill::record_drift(Simulation& sim) {
-  ParticleStore& p = sim.particles;
-  const Epicycle E(omega_, omega_z_, sim.time - t_ref_, planar_);
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (mode_of(p, i) != kFree) continue;
-    Vec3 x = p.x[i], v = p.v[i];
-    E.advance(x, v);
-    double* d = p.column(drift_column_, i);
-    for (int k = 0; k < 3; ++k) d[k] = x[k] - p.x[i][k];
+Vec3 MultiRateHill::Present::operator()(std::size_t j) const {
+  if (!lagging || integrator.mode_of(p, j) != kFree) return p.x[j];
+  Vec3 x = p.x[j], v = p.v[j];
+  const int k = halo.sheared_image(p, j);
+  if (k == 0) {
+    map.advance(x, v);
+    return x;
   }
+  // The image's offset along x is the halo's (it moves with the shear as the owner's image);
+  // its epicycle is the owner's: taken in the owner's y and v_x, moved back after.
+  x[1] -= k * Ly;
+  v[0] -= k * rate * Ly;
+  map.advance(x, v);
+  x[1] += k * Ly;
+  return x;
 }
 
 bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) const {
@@ -236,10 +230,7 @@ void MultiRateHill::materialize(Simulation& sim) {
   if (tau <= 0) return;
   const Epicycle E(omega_, omega_z_, tau, planar_);
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (mode_of(p, i) == kFree) {
-      E.advance(p.x[i], p.v[i]);
-      if (drift_column_ != ParticleStore::kNoColumn) std::fill_n(p.column(drift_column_, i), 3, 0.0);
-    }
+    if (mode_of(p, i) == kFree) E.advance(p.x[i], p.v[i]);
 }
 
 void MultiRateHill::pre_rebuild(Simulation& sim) {
@@ -288,7 +279,6 @@ void MultiRateHill::find_watched(const Simulation& sim) {
 
 void MultiRateHill::initial_integrate(Simulation& sim) {
   if (!in_long_step_) begin_long_step(sim);
-  if (drift_column_ != ParticleStore::kNoColumn) record_drift(sim);  // before this step's ghost update
   ParticleStore& p = sim.particles;
   const double dt = dt_, h = 0.5 * dt_, stream = sim.stream, c = rot_c_, s = rot_s_;
   const bool planar = planar_;

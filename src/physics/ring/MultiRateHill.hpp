@@ -46,6 +46,7 @@
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
+#include "parallel/HaloExchange.hpp"
 
 namespace cassini {
 
@@ -71,12 +72,6 @@ class MultiRateHill : public Module {
   // Coriolis as a body force (stress bookkeeping), as the plain integrator reports it.
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
 
-  // Every particle's position now, owned and ghosts (those of free particles brought forward
-  // from t_ref on their epicycles; a ghost that is a sheared image moves as its owner does),
-  // indexed as the particles. Valid until the particles move or are rebuilt. Needs the
-  // drift column (declared when the scene has self-gravity).
-  const Vec3* present_positions(const Simulation& sim);
-
   // The exact linear-Hill (epicycle) map over time t, in place. Public for the tests.
   struct Epicycle {
     Epicycle(double omega, double omega_z, double t, bool planar);
@@ -85,6 +80,21 @@ class MultiRateHill : public Module {
     bool planar;
     double s1, c1, cz, sz;  // sin(W t)/W, (1 - cos W t)/W, cos(W_z t), sin(W_z t)
   };
+
+  // Where a particle (owned or ghost, by index) is now: a free particle's stored state is that
+  // of t_ref, brought forward on its epicycle; a ghost that is a sheared image (HaloExchange::
+  // sheared_image) moves as its owner, in its owner's y. The same bits for a particle and for
+  // its unsheared ghosts, so forces from it are the same on any rank count. Valid for this step.
+  struct Present {
+    const ParticleStore& p;
+    const HaloExchange& halo;
+    const MultiRateHill& integrator;
+    Epicycle map;
+    double Ly, rate;
+    bool lagging;  // free particles' stored states lag (within a long step, after its first step)
+    Vec3 operator()(std::size_t j) const;
+  };
+  Present present(const Simulation& sim) const;
 
   // Counts on this rank since the run started.
   long long contact_particle_steps = 0;  // particle-steps on contact steps
@@ -122,10 +132,6 @@ class MultiRateHill : public Module {
   const Moonlet* moonlet_ = nullptr;
   SelfGravity* gravity_ = nullptr;
   double gravity_bound_ = 0;  // twice the largest gravitational acceleration at the long step's start
-  std::vector<Vec3> present_;  // present_positions()' scratch
-  // With self-gravity: each free particle's displacement since t_ref (a column the ghosts carry).
-  std::size_t drift_column_ = ParticleStore::kNoColumn;
-  void record_drift(Simulation& sim);
   // Kicks of a long step's ends: the moonlet's and (free particles) gravity's, or (on contact steps) the mesh's.
   Vec3 slow_acceleration(const ParticleStore& p, std::size_t i, bool free) const;
   double rot_c_, rot_s_;  // Coriolis rotation over dt/2 for the contact steps

@@ -239,6 +239,9 @@ class SelfGravity : public Module {
   // Under the multi-rate integrator: its present positions, and the short range of this step's targets.
   MultiRateHill* multirate_ = nullptr;
   std::vector<Vec3> short_now_;
+  // Positions now of the particles the targets' pairs need, valid where stamped with the step.
+  std::vector<Vec3> present_;
+  std::vector<long> present_step_;
   double synced_potential_ = 0;  // at the last long step's end (solve_all), kept through rebuilds
   bool synced_ = false;
   void force_multirate(Simulation& sim);
