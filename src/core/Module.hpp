@@ -19,6 +19,7 @@
 namespace cassini {
 
 class Simulation;
+class PairHistory;
 
 // Forces for stress output (snapshots, cassini-cg), evaluated at the current state (full-step
 // velocities) without changing any contact history.
@@ -62,6 +63,10 @@ class Module {
   // numbers with the same value on every rank. Written into every snapshot; a restarted
   // run finds them in Simulation::restart_state when setup() is called.
   virtual void save_state(std::vector<std::pair<std::string, double>>&) const {}
+  // Contact history of this rank's owned contacts, as rows of the columns the module declared in
+  // Simulation::history (PairHistory.hpp); appended to `out`. Snapshots write it, restarts bring
+  // it back into Simulation::history before the first rebuild.
+  virtual void contact_history(const Simulation&, PairHistory&) const {}
 
   // Stress bookkeeping (thesis 3.27, 3.32, 3.34): a module that puts pair forces, wall forces
   // or body forces (anything that is neither) on particles reports them here. Each appends;

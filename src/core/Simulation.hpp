@@ -11,6 +11,7 @@
 #include "core/Config.hpp"
 #include "core/Module.hpp"
 #include "core/NeighborList.hpp"
+#include "core/PairHistory.hpp"
 #include "core/ParticleStore.hpp"
 #include "core/StageTimers.hpp"
 #include "parallel/Decomposition.hpp"
@@ -59,7 +60,7 @@ class Simulation {
   ParticleStore particles;
   NeighborList neighbors;
   HaloExchange halo;
-  std::vector<HistoryEntry> history;  // tangential springs in transit during a rebuild
+  PairHistory history;  // contact history in transit during a rebuild (columns: the contact law's)
 
   // Particles to add at the next rebuild (an inlet): added after the pre_rebuild hooks have
   // saved the contact history, so that no spring is lost.

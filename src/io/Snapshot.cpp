@@ -23,7 +23,6 @@
 #include "io/ReadConfig.hpp"
 #include "io/SnapshotSchema.hpp"
 #include "core/Simulation.hpp"
-#include "physics/contact/ContactForces.hpp"
 
 namespace cassini {
 namespace {
@@ -137,12 +136,6 @@ void vec3_column(hid_t g, const std::string& name, const Rows& r, const std::vec
   for (std::size_t k = 0; k < recs.size(); ++k)
     for (int c = 0; c < 3; ++c) col[3 * k + c] = (recs[k].*member)[c];
   rows_dataset(g, name, H5T_NATIVE_DOUBLE, r.total, r.offset, r.rows, 3, col.data(), dxpl, false);
-}
-template <class R>
-void double_column(hid_t g, const std::string& name, const Rows& r, const std::vector<R>& recs, double R::*member, hid_t dxpl) {
-  std::vector<double> col(recs.size());
-  for (std::size_t k = 0; k < recs.size(); ++k) col[k] = recs[k].*member;
-  rows_dataset(g, name, H5T_NATIVE_DOUBLE, r.total, r.offset, r.rows, 1, col.data(), dxpl, false);
 }
 
 }  // namespace
@@ -275,16 +268,18 @@ void write_box(hid_t grains, const Simulation& sim, hid_t dxpl) {
 // branch r_i - r_j, force on i; wall contacts: particle id, contact point, branch, force.
 void write_contacts(hid_t file, const Simulation& sim, hid_t dxpl) {
   const MPI_Comm comm = sim.domain.comm;
-  std::vector<HistoryEntry> springs;
-  if (const auto* c = sim.find<ContactForces>()) c->springs(sim, springs);
+  PairHistory history = sim.history;  // the declared columns, no rows (a snapshot follows a rebuild)
+  history.clear();
+  for (const auto& mod : sim.modules) mod->contact_history(sim, history);
   Handle cg = group(file, "contacts");
-  const Rows sr = my_rows(springs.size(), comm);
-  id_column(cg, "owner", sr, springs, &HistoryEntry::owner, dxpl);
-  id_column(cg, "partner", sr, springs, &HistoryEntry::partner, dxpl);
-  vec3_column(cg, "xi", sr, springs, &HistoryEntry::xi, dxpl);
-  // Only in scenes that keep them (a restart reads a missing column as zeros).
-  if (sim.particles.impacts) double_column(cg, "impact_speed", sr, springs, &HistoryEntry::impact, dxpl);
-  if (sim.particles.rolling) vec3_column(cg, "roll", sr, springs, &HistoryEntry::roll, dxpl);
+  const Rows sr = my_rows(history.size(), comm);
+  rows_dataset(cg, "owner", H5T_NATIVE_INT64, sr.total, sr.offset, sr.rows, 1, history.owner.data(), dxpl, false);
+  rows_dataset(cg, "partner", H5T_NATIVE_INT64, sr.total, sr.offset, sr.rows, 1, history.partner.data(), dxpl, false);
+  for (const PairHistory::Column& c : history.columns()) {
+    std::vector<double> col(c.width * history.size());
+    for (std::size_t k = 0; k < history.size(); ++k) std::copy_n(history.row(k) + c.offset, c.width, &col[k * c.width]);
+    rows_dataset(cg, c.name, H5T_NATIVE_DOUBLE, sr.total, sr.offset, sr.rows, c.width, col.data(), dxpl, false);
+  }
   std::vector<PairForce> pairs;
   std::vector<WallForce> walls;
   for (const auto& mod : sim.modules) {
@@ -447,25 +442,27 @@ std::string write_snapshot(Simulation& sim, const std::string& dir, const std::s
 
 namespace {
 
-// Contact springs: each rank reads a block of rows and sends each spring to the rank that read
-// its owner particle (particle rows are in id order, so rank r's block starts at id first[r]);
-// migration then carries it on with its particle. No rank holds more than its share.
-std::vector<HistoryEntry> read_springs(const SnapshotReader& in, const std::vector<double>& my_ids,
-                                       const Decomposition& dom) {
+// Contact history: each rank reads a block of rows and sends each row to the rank that read its
+// owner particle (particle rows are in id order, so rank r's block starts at id first[r]);
+// migration then carries it on with its particle. No rank holds more than its share. The
+// columns are those `history` declares (a column the snapshot lacks reads as zeros: a contact
+// then starts it afresh, e.g. an impact speed from the present approach).
+void read_history(const SnapshotReader& in, const std::vector<double>& my_ids, const Decomposition& dom,
+                  PairHistory& history) {
   const int P = dom.nranks;
   const hsize_t M = in.extent("contacts/owner", 0);
   const hsize_t lo = M * dom.rank / P, n = M * (dom.rank + 1) / P - lo;
   std::vector<std::int64_t> owner(n), partner(n);
-  std::vector<double> xi(3 * n);
   in.read("contacts/owner", H5T_NATIVE_INT64, lo, n, 1, owner.data(), false);
   in.read("contacts/partner", H5T_NATIVE_INT64, lo, n, 1, partner.data(), false);
-  in.read("contacts/xi", H5T_NATIVE_DOUBLE, lo, n, 3, xi.data(), false);
-  // Impact speeds (Bridges restitution) since they were stored; older snapshots have none and
-  // their contacts take their present approach speed (ContactForces::force).
-  std::vector<double> impact(n, 0.0);
-  if (in.has("contacts/impact_speed")) in.read("contacts/impact_speed", H5T_NATIVE_DOUBLE, lo, n, 1, impact.data(), false);
-  std::vector<double> roll(3 * n, 0.0);  // rolling-resistance torque springs, likewise
-  if (in.has("contacts/roll")) in.read("contacts/roll", H5T_NATIVE_DOUBLE, lo, n, 3, roll.data(), false);
+  const std::size_t W = static_cast<std::size_t>(history.width());
+  std::vector<double> rows(W * n, 0.0);
+  for (const PairHistory::Column& c : history.columns()) {
+    if (!in.has("contacts/" + c.name)) continue;
+    std::vector<double> col(c.width * n);
+    in.read("contacts/" + c.name, H5T_NATIVE_DOUBLE, lo, n, c.width, col.data(), false);
+    for (hsize_t k = 0; k < n; ++k) std::copy_n(&col[k * c.width], c.width, &rows[k * W + c.offset]);
+  }
 
   // The first id of each rank's particle block (an empty block takes the next one's).
   const std::int64_t none = std::numeric_limits<std::int64_t>::max();
@@ -473,24 +470,20 @@ std::vector<HistoryEntry> read_springs(const SnapshotReader& in, const std::vect
   std::vector<std::int64_t> first(P);
   MPI_Allgather(&mine, 1, MPI_INT64_T, first.data(), 1, MPI_INT64_T, dom.comm);
   for (int r = P - 2; r >= 0; --r) first[r] = std::min(first[r], first[r + 1]);
-  constexpr int kWidth = 9;  // owner, partner (as bits), xi, impact, roll
-  std::vector<std::vector<double>> out(P);
+  std::vector<std::vector<double>> out(P);  // per row: owner, partner (as bits), the columns
   for (hsize_t k = 0; k < n; ++k) {
     const int r = std::max<int>(0, int(std::upper_bound(first.begin(), first.end(), owner[k]) - first.begin()) - 1);
-    const double row[kWidth] = {id_bits(owner[k]), id_bits(partner[k]), xi[3 * k], xi[3 * k + 1], xi[3 * k + 2],
-                                impact[k], roll[3 * k], roll[3 * k + 1], roll[3 * k + 2]};
-    out[r].insert(out[r].end(), row, row + kWidth);
+    out[r].push_back(id_bits(owner[k]));
+    out[r].push_back(id_bits(partner[k]));
+    out[r].insert(out[r].end(), &rows[k * W], &rows[k * W] + W);
   }
   const std::vector<double> got = send_to_ranks(out, dom.comm);
   std::vector<std::int64_t> held(my_ids.size());  // ascending: the rows are in id order
   for (std::size_t k = 0; k < my_ids.size(); ++k) held[k] = bits_id(my_ids[k]);
-  std::vector<HistoryEntry> springs;
-  springs.reserve(got.size() / kWidth);
-  for (std::size_t o = 0; o < got.size(); o += kWidth)
-    if (std::binary_search(held.begin(), held.end(), bits_id(got[o])))  // a spring of a particle not in the file: dropped
-      springs.push_back({bits_id(got[o]), bits_id(got[o + 1]), Vec3(got[o + 2], got[o + 3], got[o + 4]), got[o + 5],
-                       Vec3(got[o + 6], got[o + 7], got[o + 8])});
-  return springs;
+  history.clear();
+  for (std::size_t o = 0; o < got.size(); o += 2 + W)
+    if (std::binary_search(held.begin(), held.end(), bits_id(got[o])))  // a contact of a particle not in the file: dropped
+      std::copy_n(&got[o + 2], W, history.add(bits_id(got[o]), bits_id(got[o + 1])));
 }
 
 }  // namespace
@@ -541,7 +534,7 @@ void read_snapshot(Simulation& sim, const std::string& path) {
                              in.number("parameters/time_offset_dt", 2)};
     std::int64_t step = 0;
     in.read("parameters/step", H5T_NATIVE_INT64, 0, 1, 1, &step, false);
-    sim.history = read_springs(in, ids, dom);
+    read_history(in, ids, dom, sim.history);
     if (std::abs(state[2] - sim.dt) > 1e-12 * sim.dt)
       throw ConfigError(path + ": snapshot dt " + std::to_string(state[2]) + " differs from the case's dt " +
                         std::to_string(sim.dt) + " (a restart must keep the time step)");

@@ -130,17 +130,14 @@ void HaloExchange::feed(ParticleStore& p) {
   fed += static_cast<std::int64_t>(slots.size());
 }
 
-void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history) {
+void HaloExchange::migrate(ParticleStore& p, PairHistory& history) {
   p.resize(p.nlocal);  // drop ghosts
   if (dom_.fed_x) feed(p);
   // The history is looked up by owner for the particles that leave: sorted when the first one
   // does (most rebuilds of a periodic box on one rank move nobody away).
   bool sorted = false;
   auto sort_history = [&] {
-    if (sorted) return;
-    std::sort(history.begin(), history.end(), [](const HistoryEntry& a, const HistoryEntry& b) {
-      return a.owner < b.owner || (a.owner == b.owner && a.partner < b.partner);
-    });
+    if (!sorted) history.sort();
     sorted = true;
   };
   std::vector<std::vector<double>>& out = empty_buffers();
@@ -187,14 +184,11 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
         auto& buf = out[dest];
         p.pack(i, buf);
         sort_history();
-        auto [b, e] = std::equal_range(history.begin(), history.end(), HistoryEntry{p.id[i], 0, {}},
-                                       [](const HistoryEntry& a, const HistoryEntry& c) { return a.owner < c.owner; });
+        const auto [b, e] = history.rows_of(p.id[i]);
         buf.push_back(static_cast<double>(e - b));
-        for (auto h = b; h != e; ++h) {
-          buf.push_back(id_bits(h->partner));
-          buf.insert(buf.end(), h->xi.data(), h->xi.data() + 3);
-          buf.push_back(h->impact);
-          buf.insert(buf.end(), h->roll.data(), h->roll.data() + 3);
+        for (std::size_t h = b; h < e; ++h) {
+          buf.push_back(id_bits(history.partner[h]));
+          buf.insert(buf.end(), history.row(h), history.row(h) + history.width());
         }
       } else if (!drain) {
         ++removed;
@@ -211,9 +205,9 @@ void HaloExchange::migrate(ParticleStore& p, std::vector<HistoryEntry>& history)
     o = p.unpack(in, o);
     const std::int64_t owner = p.id[p.size() - 1];
     const auto nh = static_cast<std::size_t>(in[o++]);
-    for (std::size_t h = 0; h < nh; ++h, o += 8)
-      history.push_back({owner, bits_id(in[o]), Vec3(in[o + 1], in[o + 2], in[o + 3]), in[o + 4],
-                         Vec3(in[o + 5], in[o + 6], in[o + 7])});
+    const std::size_t w = static_cast<std::size_t>(history.width());
+    for (std::size_t h = 0; h < nh; ++h, o += 1 + w)
+      std::copy_n(&in[o + 1], w, history.add(owner, bits_id(in[o])));
     p.nlocal = p.size();
   }
   for (std::size_t i = 0; i < p.nlocal; ++i)

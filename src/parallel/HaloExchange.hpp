@@ -11,18 +11,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/PairHistory.hpp"
 #include "core/ParticleStore.hpp"
 #include "parallel/Decomposition.hpp"
 
 namespace cassini {
-
-// History of one contact, carried across rebuilds and migrations.
-struct HistoryEntry {
-  std::int64_t owner, partner;
-  Vec3 xi;              // tangential spring (friction)
-  double impact = 0;    // normal speed of the contact's impact (Bridges restitution)
-  Vec3 roll = Vec3::Zero();  // rolling/twisting torque spring (rolling resistance)
-};
 
 class HaloExchange {
  public:
@@ -31,7 +24,7 @@ class HaloExchange {
   // Wraps owned particles into the box (periodic and sheared axes) and sends every particle
   // to the rank owning its slab, with its contact history. Particles past an open boundary are
   // removed and counted in `removed`.
-  void migrate(ParticleStore& p, std::vector<HistoryEntry>& history);
+  void migrate(ParticleStore& p, PairHistory& history);
   // Rebuilds the ghost region from scratch (owned particles must be inside their slab).
   void build_ghosts(ParticleStore& p);
   // Refreshes ghost positions, velocities, spins and integrator modes from their owners.

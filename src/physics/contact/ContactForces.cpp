@@ -424,10 +424,9 @@ ContactForces::Springs ContactForces::spring_of(const ParticleStore& p, const Ne
   return {};
 }
 
-void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& out) const {
+void ContactForces::contact_history(const Simulation& sim, PairHistory& out) const {
   const ParticleStore& p = sim.particles;
   const NeighborList& nl = sim.neighbors;
-  out.clear();
   if (nl.start.size() != p.nlocal + 1 || touching_.size() != nl.size()) return;
   const bool fric = has_springs(nl);
   const bool vdep = law_.velocity_dependent() && impact_.size() == nl.size();
@@ -436,7 +435,11 @@ void ContactForces::springs(const Simulation& sim, std::vector<HistoryEntry>& ou
   for (const std::uint32_t k : entries) {
     const Springs s = fric ? spring_of(p, nl, k) : Springs{};
     const double u = vdep ? impact_[k] : 0.0;
-    if (!s.xi.isZero(0) || u != 0 || !s.roll.isZero(0)) out.push_back({p.id[nl.row[k]], p.id[nl.partner[k]], s.xi, u, s.roll});
+    if (s.xi.isZero(0) && u == 0 && s.roll.isZero(0)) continue;
+    double* row = out.add(p.id[nl.row[k]], p.id[nl.partner[k]]);
+    if (xi_column_ >= 0) std::copy_n(s.xi.data(), 3, row + xi_column_);
+    if (impact_column_ >= 0) row[impact_column_] = u;
+    if (roll_column_ >= 0) std::copy_n(s.roll.data(), 3, row + roll_column_);
   }
 }
 
@@ -466,6 +469,9 @@ ModuleKind ContactForces::kind() {
   return {"contact", {}, nullptr, [](Simulation& sim) {
             auto c = std::make_unique<ContactForces>(sim.cfg, sim.dt);
             if (c->law_.damping_limit()) c->limit_ = DampingLimit::attach(sim.particles);
+            if (c->law_.friction()) c->xi_column_ = sim.history.declare("xi", 3);
+            if (c->law_.velocity_dependent()) c->impact_column_ = sim.history.declare("impact_speed", 1);
+            if (c->law_.rolling()) c->roll_column_ = sim.history.declare("roll", 3);
             return c;
           }};
 }
@@ -507,7 +513,8 @@ void ContactForces::build_mirrors(const ParticleStore& p, const NeighborList& nl
 void ContactForces::pre_rebuild(Simulation& sim) {
   // Without a list yet (first rebuild, or after a restart) keep what is in the stash.
   if (!keeps_history() || sim.neighbors.start.size() != sim.particles.nlocal + 1) return;
-  springs(sim, sim.history);
+  sim.history.clear();
+  contact_history(sim, sim.history);
 }
 
 namespace {
@@ -576,23 +583,33 @@ void ContactForces::post_rebuild(Simulation& sim) {
   const std::uint64_t mask = size - 1;
   table_.assign(size, kEmpty);
   for (std::uint32_t at = 0; at < stash.size(); ++at) {
-    for (std::uint64_t h = pair_hash(stash[at].owner, stash[at].partner) & mask;; h = (h + 1) & mask) {
+    for (std::uint64_t h = pair_hash(stash.owner[at], stash.partner[at]) & mask;; h = (h + 1) & mask) {
       const std::uint32_t q = table_[h];
       if (q == kEmpty) { table_[h] = at; break; }
-      if (stash[q].owner == stash[at].owner && stash[q].partner == stash[at].partner) break;
+      if (stash.owner[q] == stash.owner[at] && stash.partner[q] == stash.partner[at]) break;
     }
   }
-  const HistoryEntry none{0, 0, Vec3::Zero()};
-  auto find = [&](std::int64_t owner, std::int64_t partner) -> const HistoryEntry& {
+  // A contact's history as it arrived: its row's columns, zeros for a new contact.
+  struct Arrived {
+    Vec3 xi = Vec3::Zero(), roll = Vec3::Zero();
+    double impact = 0;
+  };
+  auto find = [&](std::int64_t owner, std::int64_t partner) {
+    Arrived a;
     for (std::uint64_t h = pair_hash(owner, partner) & mask;; h = (h + 1) & mask) {
       const std::uint32_t q = table_[h];
-      if (q == kEmpty) return none;  // a new contact (or one that began in the drift)
-      const HistoryEntry& e = stash[q];
-      if (e.owner == owner && e.partner == partner) return e;
+      if (q == kEmpty) return a;  // a new contact (or one that began in the drift)
+      if (stash.owner[q] == owner && stash.partner[q] == partner) {
+        const double* row = stash.row(q);
+        if (xi_column_ >= 0) a.xi = Vec3(row[xi_column_], row[xi_column_ + 1], row[xi_column_ + 2]);
+        if (roll_column_ >= 0) a.roll = Vec3(row[roll_column_], row[roll_column_ + 1], row[roll_column_ + 2]);
+        if (impact_column_ >= 0) a.impact = row[impact_column_];
+        return a;
+      }
     }
   };
   std::uint32_t* held = springs_.slots();
-  auto restore = [&](std::uint32_t k, const HistoryEntry& e) {
+  auto restore = [&](std::uint32_t k, const Arrived& e) {
     if (vdep) impact_[k] = e.impact;
     if (!fric) return;
     const std::uint32_t slot = springs_.hold(held[k]);
@@ -604,10 +621,10 @@ void ContactForces::post_rebuild(Simulation& sim) {
   split_.clear();
   for (const std::uint32_t k : touching_now_) {
     const std::uint32_t i = nl.row[k], j = nl.partner[k], q = mirror_[k];
-    const HistoryEntry& a = find(p.id[i], p.id[j]);
+    const Arrived a = find(p.id[i], p.id[j]);
     restore(k, a);
     if (q == kNoMirror) continue;
-    const HistoryEntry& b = find(p.id[j], p.id[i]);
+    const Arrived b = find(p.id[j], p.id[i]);
     if (vdep) impact_[q] = b.impact;
     if ((fric && b.xi != -a.xi) || (rolls && b.roll != -a.roll) || (vdep && b.impact != a.impact)) {
       split_.push_back(k);

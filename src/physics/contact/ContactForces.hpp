@@ -35,10 +35,11 @@ class ContactForces : public Module {
   // boundary (see force()); with HaloExchange::shear_energy, the shear's whole work.
   double energy_input() const override { return boundary_work_; }
   void pre_rebuild(Simulation& sim) override;
-  // Contact history as (owner id, partner id, tangential spring xi, impact speed, torque spring)
-  // for every owned contact that has some (springs with friction and rolling resistance, an
-  // impact speed under Bridges).
-  void springs(const Simulation& sim, std::vector<HistoryEntry>& out) const;
+  // Contact history, one row per owned contact that has some, in the columns this module
+  // declares when it is made (kind()): "xi", the tangential spring (friction); "impact_speed",
+  // the normal speed of the contact's impact (Bridges restitution); "roll", the rolling and
+  // twisting torque spring (rolling resistance).
+  void contact_history(const Simulation& sim, PairHistory& out) const override;
   // Every contact once (springs unchanged).
   void pair_forces(const Simulation& sim, std::vector<PairForce>& out) const override;
   // Recomputes contact counts and overlaps without touching forces or springs (after a restart).
@@ -91,6 +92,8 @@ class ContactForces : public Module {
   void evaluate(Simulation& sim, const Parts& parts);
   void build_mirrors(const ParticleStore& p, const NeighborList& nl);
   bool keeps_history() const { return law_.friction() || law_.velocity_dependent(); }
+  // Offsets of this module's columns in a PairHistory row (-1: the scene keeps none).
+  int xi_column_ = -1, impact_column_ = -1, roll_column_ = -1;
   // The law of list entry k's contact (its own under the Bridges law).
   PairLaw entry_law(int a, int b, std::uint32_t k) const;
 
