@@ -91,6 +91,12 @@ TEST(RankEquivalence, RollingAndTwistingResistanceGasWithWalls) {
   compare(kScene, {"species.0.mu_r=0.1", "species.0.mu_o=0.05"}, 2000);
 }
 
+TEST(RankEquivalence, AdhesiveFrictionalGasWithWalls) {
+  // DMT adhesion (Adhesion.hpp) strong enough that impacts slower than ~3 m/s stick (the grains
+  // start at 5 m/s per component): clusters form and break across slab faces, grains stick to walls.
+  compare(kScene, {"species.0.surface_energy=100.0"}, 2000);
+}
+
 TEST(RankEquivalence, FrictionalGasWithWallsSlabsAlongY) { compare(kScene, {"domain.slab_axis=\"y\""}, 2000); }
 
 TEST(RankEquivalence, DenseFrictionalPackingWithManyContactsPerParticle) {

@@ -21,8 +21,22 @@ namespace cassini {
 // growing shear offset and moves faster by shear_rate * Ly (spec section 2).
 enum class Boundary { Periodic, Wall, Open, LeesEdwards };
 
+// A contact parameter that a part of the contact law declares in its own file (listed by
+// LinearSpringDashpot::parameters()): the case reader takes it from every [[species]] table
+// (`fallback` where a table does not give it), refuses values below `min`, mixes an unlike
+// pair's value from its species' values with `mix`, and lets a [[pair]] table override it. The
+// values reach the law by key (Species::declared, PairParameters::declared).
+struct ContactParameter {
+  std::string key;
+  std::string expected;  // what a valid value is, for the error message
+  double fallback = 0;
+  double min = 0;
+  double (*mix)(double, double) = nullptr;
+};
+
 struct Species {
   std::string name;
+  std::map<std::string, double> declared;  // the law's declared parameters (ContactParameter), by key
   double density = 0;
   double radius_min = 0, radius_max = 0;  // equal for monodisperse; distributed by `sizes` otherwise
   SizeDistribution sizes;
@@ -53,6 +67,12 @@ struct PairParameters {
   double v_c = 0;  // > 0: Bridges restitution (e set per impact; see Species::v_c)
   double mu_r = 0, mu_o = 0, eta_r = 0.3;  // rolling and twisting resistance (see Species::mu_r)
   double e_star = 0, g_star = 0;  // > 0: Hertz-Mindlin effective moduli (see Species::youngs_modulus)
+  std::map<std::string, double> declared;  // the law's declared parameters (ContactParameter), by key
+  double value(const std::string& key) const {
+    const auto it = declared.find(key);
+    if (it == declared.end()) throw std::logic_error("contact parameter '" + key + "' was not declared");
+    return it->second;
+  }
 };
 // Bridges et al. (1984): e = (u / v_c)^-kBridgesExponent for impacts faster than v_c.
 inline constexpr double kBridgesExponent = 0.234;

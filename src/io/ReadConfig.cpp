@@ -151,6 +151,11 @@ Config read_config(CaseFile& f) {
       const double E = hertz_e_star(s.youngs_modulus, s.poisson_ratio, s.youngs_modulus, s.poisson_ratio);
       s.t_c = hertz_contact_time(0.5 * m, 0.5 * s.radius_min, E, s.impact_speed);
     }
+    for (const ContactParameter& q : LinearSpringDashpot::parameters()) {
+      const double v = f.number(p + q.key, q.fallback);
+      if (!(v >= q.min)) f.fail(p + q.key, q.expected);
+      s.declared[q.key] = v;
+    }
     for (const auto& other : c.species)
       if (other.name == s.name) f.fail(p + "name", "a name not used by another species");
     c.species.push_back(s);
@@ -166,6 +171,8 @@ Config read_config(CaseFile& f) {
                             0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio),
                             0.5 * (s.v_c + t.v_c), std::min(s.mu_r, t.mu_r), std::min(s.mu_o, t.mu_o),
                             0.5 * (s.eta_r + t.eta_r)};
+      for (const ContactParameter& q : LinearSpringDashpot::parameters())
+        c.pairs[a * n + b].declared[q.key] = a == b ? s.declared.at(q.key) : q.mix(s.declared.at(q.key), t.declared.at(q.key));
       if (s.youngs_modulus > 0 && t.youngs_modulus > 0) {
         c.pairs[a * n + b].e_star = hertz_e_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
         c.pairs[a * n + b].g_star = hertz_g_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
@@ -219,6 +226,11 @@ Config read_config(CaseFile& f) {
     pp.kt_ratio = f.non_negative(p + "kt_ratio", pp.kt_ratio);
     pp.gammat_ratio = f.non_negative(p + "gammat_ratio", pp.gammat_ratio);
     if (pp.mu_s > 0 && !(pp.kt_ratio > 0)) f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 with friction");
+    for (const ContactParameter& q : LinearSpringDashpot::parameters()) {
+      double& v = pp.declared[q.key];
+      v = f.number(p + q.key, v);
+      if (!(v >= q.min)) f.fail(p + q.key, q.expected);
+    }
     c.pairs[idx[0] * n + idx[1]] = c.pairs[idx[1] * n + idx[0]] = pp;
   }
   for (std::size_t a = 0; a < n; ++a)

@@ -72,7 +72,6 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const double dt = law_.dt();
   // Bridges restitution: each contact's law follows from its impact speed, kept per entry.
   constexpr bool vdep = Parts::bridges;
-  constexpr bool hertz = Parts::hertz;
   if (vdep && impact_.size() != nl.size()) refill(impact_, nl.size(), 0.0);
   double* U = vdep ? impact_.data() : nullptr;
   PairLaw contact_law;  // scratch for a contact's own law
@@ -197,7 +196,8 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         const double mj = M[j];
         const double m = mi * mj / (mi + mj);
         const double vn = (vi - V[j]).dot(n);
-        const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, 0.0);
+        const double reff = Parts::reduced_radius ? ai * A[j] / (ai + A[j]) : 0.0;
+        const NormalStep ns = law_.normal(parts, law_of(si, S[j], k), m, R - r, vn, reff);
         if (ns.fn != 0 || ns.shift != 0) {
           const Vec3 f = ns.fn * n;
           RES[e].f = f;
@@ -207,7 +207,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
         }
         if (mk != kNoMirror) {  // j's side: negated, or on its own impact speed (see below)
           const bool own_law = vdep && U[mk] != U[k];
-          const NormalStep nj = own_law ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, 0.0) : ns;
+          const NormalStep nj = own_law ? law_.normal(parts, law_of(S[j], si, mk), m, R - r, vn, reff) : ns;
           if (nj.fn != 0 || nj.shift != 0) {
             std::uint32_t slot = static_cast<std::uint32_t>(e);
             if (own_law) {
@@ -264,7 +264,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
       split = *SPLIT == k;
     }
     double shift = 0;
-    const double reff = hertz || rolls ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
+    const double reff = Parts::reduced_radius ? ai * A[j] / (ai + A[j]) : 0.0;  // reduced radius
     // Rolling: relative spin and reduced moment of inertia about the contact point (I + m a^2
     // = 1.4 m a^2 per solid sphere; ghosts carry no inverse inertia).
     const std::uint32_t held = fric ? springs_.hold(HELD[k]) : 0;

@@ -21,8 +21,7 @@ class ContactForces : public Module {
   static ModuleKind kind();
   ContactForces(const Config& cfg, double dt) : law_(cfg, dt) {}
   std::string name() const override {
-    return std::string("contact (LSD") + (law_.friction() ? " + friction" : "") +
-           (law_.velocity_dependent() ? " + Bridges e(u)" : "") + (limit_.on() ? " + damping limit" : "") + ")";
+    return "contact (" + law_.label() + (limit_.on() ? " + damping limit" : "") + ")";
   }
   // The exact scheme moves pairs at its onset and exit steps, at the end of the step.
   unsigned stages() const override {

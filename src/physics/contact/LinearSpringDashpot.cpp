@@ -38,11 +38,13 @@ LinearSpringDashpot::LinearSpringDashpot(const Config& cfg, double dt) : n_(stat
       L.mu_r = q.mu_r;
       L.mu_o = q.mu_o;
       L.eta_r = q.eta_r;
+      L.adhesion = Adhesion::force_per_radius(q.value("surface_energy"));
+      adhesion_ = adhesion_ || L.adhesion > 0;
       rolling_ = rolling_ || q.mu_r > 0 || q.mu_o > 0;
       hertz_ = hertz_ || q.e_star > 0;
     }
   velocity_dependent_ = cfg.velocity_dependent_restitution();
-  parts_ = {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_, clip_};
+  parts_ = {exact_ && !hertz_, hertz_, friction_, rolling_, velocity_dependent_, adhesion_, clip_};
   // Against walls: the species' own law with its wall friction.
   for (int a = 0; a < n_; ++a) {
     wall_table_.push_back(table_[a * n_ + a]);

@@ -67,6 +67,7 @@
 #include "core/Config.hpp"
 #include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
+#include "physics/contact/Adhesion.hpp"
 #include "physics/contact/DampingLimit.hpp"
 #include "physics/contact/HertzMindlin.hpp"
 
@@ -144,6 +145,7 @@ struct PairLaw {
   double v_c;  // > 0: e is set per impact by the Bridges law (LinearSpringDashpot::at_impact)
   double e_star, g_star, c_hertz;  // e_star > 0: Hertz-Mindlin (HertzMindlin.hpp), c from e
   double mu_r, mu_o, eta_r;        // rolling and twisting resistance (LinearSpringDashpot::rolling)
+  double adhesion;                 // DMT pull-off force per reduced radius (Adhesion.hpp); 0: none
   // "exact" scheme, tangential: the sticking contact's oscillator (per tangential mass m / 3.5:
   // damping rate eta_t, squared frequency w2_t, <= 0 when overdamped) and its discrete spring
   // and dashpot per reduced mass (LinearSpringDashpot::set_tangential).
@@ -177,21 +179,22 @@ class PendingShifts {
 };
 
 // Which parts of the law a scene uses: the normal model (linear under the exact scheme, linear
-// under Verlet, Hertz), friction, rolling resistance, Bridges restitution. The law below is
+// under Verlet, Hertz), friction, rolling resistance, Bridges restitution, adhesion. The law below is
 // written once against a Parts type: with LawParts<...> every choice is a compile-time constant
 // and the branches of the parts a scene lacks vanish (the pair loop is compiled once per valid
 // combination, LinearSpringDashpot::with_parts); RuntimeParts carries the same choices as
 // values, for callers off the hot path (walls, reports). The two give identical results.
-template <bool Exact, bool Hertz, bool Friction, bool Rolling, bool Bridges>
+template <bool Exact, bool Hertz, bool Friction, bool Rolling, bool Bridges, bool Adhesive>
 struct LawParts {
   static constexpr bool exact = Exact && !Hertz;  // Hertz pairs use velocity Verlet under either scheme
-  static constexpr bool hertz = Hertz, friction = Friction, rolling = Rolling, bridges = Bridges;
+  static constexpr bool hertz = Hertz, friction = Friction, rolling = Rolling, bridges = Bridges, adhesion = Adhesive;
+  static constexpr bool reduced_radius = Hertz || Rolling || Adhesive;  // callers pass reff
   // The combinations ReadConfig admits: rolling needs friction, Bridges is a linear law's.
   static constexpr bool valid = (!Rolling || Friction) && !(Hertz && (Bridges || Exact));
   bool clip;
 };
 struct RuntimeParts {
-  bool exact, hertz, friction, rolling, bridges, clip;
+  bool exact, hertz, friction, rolling, bridges, adhesion, clip;
 };
 
 // a where mask is all ones, b where it is zero: a lane-wise bit select in vector registers.
@@ -220,6 +223,9 @@ class LinearSpringDashpot {
   void set_tangential(PairLaw& L) const;
 
   PairLaw at_impact(int a, int b, double u) const;
+  // The parameters the law's parts declare in their own files (read for every [[species]] and
+  // [[pair]] table by the case reader, mixed by their own rules): one entry per part that has any.
+  static std::vector<ContactParameter> parameters() { return {Adhesion::parameter()}; }
   // The restitution the law gives an impact at normal speed u.
   double restitution(int a, int b, double u) const {
     const PairLaw& L = table_[a * n_ + b];
@@ -236,11 +242,17 @@ class LinearSpringDashpot {
   bool friction() const { return friction_; }
   bool exact() const { return exact_; }
   const RuntimeParts& parts() const { return parts_; }
+  // The law and its parts, for run.log: "LSD + friction + Bridges e(u)", ...
+  std::string label() const {
+    return std::string(hertz_ ? "Hertz-Mindlin" : "LSD") + (friction_ ? " + friction" : "") +
+           (rolling_ ? " + rolling resistance" : "") + (velocity_dependent_ ? " + Bridges e(u)" : "") +
+           (adhesion_ ? " + DMT adhesion" : "");
+  }
   // Calls f(LawParts<...>{}) with this scene's parts as compile-time constants: the one place
   // that lists the combinations a loop is compiled for.
   template <class F>
   void with_parts(F&& f) const {
-    const bool flags[5] = {parts_.exact, parts_.hertz, parts_.friction, parts_.rolling, parts_.bridges};
+    const bool flags[6] = {parts_.exact, parts_.hertz, parts_.friction, parts_.rolling, parts_.bridges, parts_.adhesion};
     pick<0>(f, flags);
   }
   double dt() const { return dt_; }
@@ -284,11 +296,13 @@ class LinearSpringDashpot {
   [[gnu::always_inline]] NormalStep normal(const Parts& parts, const PairLaw& L, double m, double delta, double vn,
                                            double reff) const {
     NormalStep r;
+    const double fa = parts.adhesion ? L.adhesion * reff : 0.0;  // DMT attraction (Adhesion.hpp)
     if (parts.hertz) {  // Hertz: velocity Verlet under either scheme
       if (delta <= 0) return r;
       const double K = (4.0 / 3.0) * L.e_star * std::sqrt(reff * delta);  // f = K delta
       r.fn = K * delta - L.c_hertz * std::sqrt(K * m) * vn;
       if (parts.clip && r.fn < 0) r.fn = 0;
+      if (parts.adhesion) r.fn -= fa;
       r.contact_time = dt_;
       return r;
     }
@@ -296,18 +310,29 @@ class LinearSpringDashpot {
       if (delta <= 0) return r;
       r.fn = m * (L.k_per_mass * delta - L.gamma_per_mass * vn);
       if (parts.clip && r.fn < 0) r.fn = 0;
+      if (parts.adhesion) r.fn -= fa;
       r.contact_time = dt_;
       return r;
     }
     const double dt = dt_, before = delta + vn * dt;  // the overlap a step ago
+    // Adhesion: the rest overlap of the oscillator the steps sample, f_a / k_eff (Adhesion.hpp).
+    const double rest = parts.adhesion ? fa / (m * L.k_eff) : 0.0;
     if (delta > 0 && before > 0) {  // inside a contact: the damped oscillator's recurrence
       r.fn = m * (L.k_eff * delta - L.gamma_eff * vn);
+      if (parts.adhesion) r.fn -= fa;
       r.contact_time = dt;
       return r;
     }
     if (delta <= 0 && before <= 0) return r;  // free flight
     double target, chord;  // the exact overlap now, and the exact chord of the next step
-    if (delta > 0) {  // began during the last step, delta / u ago (u = -vn > 0, free flight before)
+    if (delta > 0 && parts.adhesion) {  // began during the last step, delta / u ago: about the rest overlap
+      const double u = -vn, since = delta / u;
+      const Adhesion::State now = Adhesion::since_onset(u, rest, L.eta, L.omega, since);
+      target = now.overlap;
+      chord = (Adhesion::since_onset(u, rest, L.eta, L.omega, since + dt).overlap - target) / dt;
+      r.contact_time = since;
+      if (parts.friction) r.fn_now = m * (L.k_per_mass * (target - rest) + L.gamma_per_mass * now.rate);
+    } else if (delta > 0) {  // began during the last step, delta / u ago (u = -vn > 0, free flight before)
       const double u = -vn, since = delta / u;
       // Overlap of a contact that began s ago at speed u: u exp(-eta s) sin(omega s) / omega.
       auto overlap = [&](double s) { return u * std::exp(-L.eta * s) * std::sin(L.omega * s) / L.omega; };
@@ -319,6 +344,10 @@ class LinearSpringDashpot {
         const double wave = std::exp(-L.eta * since), rate = u * wave * std::cos(L.omega * since) - L.eta * target;
         r.fn_now = m * (L.k_per_mass * target + L.gamma_per_mass * rate);
       }
+    } else if (parts.adhesion) {  // ended during the last step: the oscillator about the rest overlap
+      const Adhesion::Exit x = Adhesion::exit(before, delta, rest, L.eta, L.omega, L.cos_w, L.sin_w, L.exp_eta, dt);
+      target = x.rate * (dt - x.time);
+      chord = x.rate;
     } else {  // ended during the last step: delta_{n-1} = before and delta_n = delta lie on
       // delta(s) = exp(-eta s) (before cos(omega s) + q sin(omega s)), s from the last step,
       // which reaches zero at omega s = pi - atan2(before, q) with speed -|.| omega exp(-eta s).
@@ -400,14 +429,16 @@ class LinearSpringDashpot {
       if (advance) s += vt * ns.contact_time;
       ft = -kt * s - gt * vt;
     }
-    const double cap = L.mu_s * std::max(fn, 0.0);
+    // The load pressing the surfaces together: with adhesion f_n + 2 f_a (Adhesion.hpp).
+    const double load = parts.adhesion ? fn + 2 * L.adhesion * reff : fn;
+    const double cap = L.mu_s * std::max(load, 0.0);
     const double ft2 = ft.squaredNorm();
     // Sliding (ft2 > 0 then, since cap >= 0) or sticking, both computed and one picked by a
     // mask: in a gas about a third of the contacts slide at random, and a branch here
     // mispredicted behind the long chain of square roots and divisions that decides it, which
     // cost more than the sliding arithmetic.
     const Vec3 dir = ft / std::sqrt(ft2);
-    const double slide = L.mu_d * std::max(fn, 0.0);
+    const double slide = L.mu_d * std::max(load, 0.0);
     const Vec3 ft_slide = slide * dir;
     // A sliding spring is reset so that spring and dashpot together give the Coulomb force (as
     // LAMMPS does): the force then changes continuously when the contact sticks again. Under
@@ -416,7 +447,8 @@ class LinearSpringDashpot {
     // tangential velocity now (half-way through this step's kick, m_t = m / 3.5).
     Vec3 s_slide;
     if (parts.exact) {
-      const double now = onset ? L.mu_d * std::max(ns.fn_now, 0.0) : slide;
+      const double load_now = parts.adhesion ? ns.fn_now + 2 * L.adhesion * reff : ns.fn_now;
+      const double now = onset ? L.mu_d * std::max(load_now, 0.0) : slide;
       const Vec3 v_now = vt + (1.75 * dt_ / m) * ft_slide;
       s_slide = -(now * dir + gt_law * v_now) / kt_law;
     } else {
@@ -428,7 +460,7 @@ class LinearSpringDashpot {
     *xi = s;
     if (parts.rolling && roll) {
       const double kn = parts.hertz ? 2 * L.e_star * std::sqrt(reff * delta) : m * L.k_per_mass;  // d f_n / d delta
-      roll->torque = rolling(L, kn, std::max(fn, 0.0), reff, n, advance ? ns.contact_time : 0.0, *roll,
+      roll->torque = rolling(L, kn, std::max(load, 0.0), reff, n, advance ? ns.contact_time : 0.0, *roll,
                              parts.exact && !parts.hertz);
     }
     return f + ft;
@@ -445,6 +477,7 @@ class LinearSpringDashpot {
     const bool hertz = L.e_star > 0;
     double e = hertz ? (8.0 / 15.0) * L.e_star * std::sqrt(reff * delta) * delta * delta
                      : 0.5 * m * L.k_per_mass * delta * delta;
+    e -= L.adhesion * reff * delta;  // the attraction's potential (Adhesion.hpp)
     if (xi) {
       // The stiffness the force applies (under "exact", the sticking contact's discrete one).
       const double kt = hertz ? 8 * L.g_star * std::sqrt(reff * delta) : exact_ ? m * L.kt_eff : L.kt_ratio * m * L.k_per_mass;
@@ -583,7 +616,7 @@ class LinearSpringDashpot {
  private:
   template <int N, class F, bool... Chosen>
   void pick(F& f, const bool* flags) const {
-    if constexpr (N == 5) {
+    if constexpr (N == 6) {
       using P = LawParts<Chosen...>;
       if constexpr (P::valid) f(P{parts_.clip});
       else throw std::logic_error("contact law: an invalid combination of parts");
@@ -597,7 +630,7 @@ class LinearSpringDashpot {
   int n_;
   double dt_;
   bool clip_ = false, friction_ = false, exact_ = true;
-  bool velocity_dependent_ = false, hertz_ = false, rolling_ = false, damping_limit_ = false;
+  bool velocity_dependent_ = false, hertz_ = false, rolling_ = false, damping_limit_ = false, adhesion_ = false;
   RuntimeParts parts_{};  // the flags above, as the law's run-time parts
   std::vector<PairLaw> table_;
   std::vector<PairLaw> wall_table_;  // per species: its own law, with its wall friction
