@@ -13,9 +13,10 @@
 //                                  body_force: the non-contact part (gravity, drag, frame forces)
 //   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
 //   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
-//   contacts/{owner, partner, xi, impact_speed*, roll*}   contact history: tangential springs,
-//                                  impact speeds (* only under the Bridges law), torque springs
-//                                  (* only with rolling resistance); restart needs them
+//   contacts/{owner, partner, <column>...}   contact history, one row per contact, a dataset per
+//                                  column the contact law declared (core/PairHistory.hpp): xi
+//                                  (friction), impact_speed (Bridges law), roll (rolling
+//                                  resistance); restart needs them
 //   contacts/{pair_ids, position_i, branch, force}   pair forces, each pair once (contacts and
 //                                  lubrication), at the snapshot state: for stress (cassini-cg)
 //   contacts/{wall_particle, wall_point, wall_branch, wall_force}   particle-wall contacts
