@@ -288,7 +288,7 @@ TEST(ClogMonitor, BeadsTooBigForTheNeckClogIt) {
   sim->setup();
   sim->run();
   const auto* clog = sim->find<ClogMonitor>();
-  EXPECT_TRUE(sim->finished);
+  EXPECT_TRUE(sim->record.finished);
   EXPECT_TRUE(clog->clogged());
   EXPECT_EQ(clog->escapees(), 0);
   EXPECT_LT(sim->time, 2.0);
@@ -299,7 +299,7 @@ TEST(ClogMonitor, CountFromATimeCountsOnlyTheEscapeesAfterIt) {
   // minus what the same seed had escaped at that time (a run stopped there). A clog whose
   // standstill began before the count started gives null: it is not the counted regime's.
   auto value = [](const Simulation& sim, const std::string& key) {
-    for (const auto& [k, v] : sim.results)
+    for (const auto& [k, v] : sim.record.results)
       if (k == key) return v;
     return std::string("missing");
   };
@@ -387,7 +387,7 @@ TEST(ClogMonitor, SmallDiluteBeadsFlowFreely) {
   sim->run();
   const auto* clog = sim->find<ClogMonitor>();
   const auto* inlet = sim->find<Inlet>();
-  EXPECT_FALSE(sim->finished);
+  EXPECT_FALSE(sim->record.finished);
   EXPECT_FALSE(clog->clogged());
   EXPECT_GT(clog->escapees(), 5);
   // Bookkeeping: every inserted bead is present or left through an open face.
@@ -538,7 +538,7 @@ TEST(ClogMonitor, ClearingThePileAndRecoveringCountsOnlyAvalanchesThatStartAfter
   std::vector<double> cleared;  // times of the clearings
   long removed = 0;
   std::size_t counted = 0;
-  while (!sim->finished && sim->time < 8.0) {
+  while (!sim->record.finished && sim->time < 8.0) {
     sim->step();
     if (clog->removed() != removed) {
       removed = clog->removed();
@@ -617,7 +617,7 @@ TEST(ClogMonitor, ClearingStalledBeadsLeavesNoBeadStoppedUpstream) {
   const double pass_x = sim->cfg.get<ChannelConfig>().pass_x;
   long removed = 0;
   int clearings = 0;
-  while (!sim->finished && sim->time < 8.0) {
+  while (!sim->record.finished && sim->time < 8.0) {
     sim->step();
     if (clog->removed() == removed) continue;
     removed = clog->removed();
@@ -632,7 +632,7 @@ TEST(ClogMonitor, ClearingStalledBeadsLeavesNoBeadStoppedUpstream) {
   ASSERT_GE(clearings, 2);
   ASSERT_EQ(clog->avalanches().size(), 3u);
   double phi_beyond = 1;
-  for (const auto& [k, v] : sim->results)
+  for (const auto& [k, v] : sim->record.results)
     if (k == "phi_beyond_clear") phi_beyond = std::stod(v);
   EXPECT_LT(phi_beyond, 0.4);  // a pile is ~0.5-0.6
 
@@ -709,7 +709,7 @@ TEST(HardCase, DenseArchHeldAgainstTheNeckByDragForOneSecondStaysBounded) {
   auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=1.0", "time.end=3.0", "clog.rest_speed=0"});
   sim->setup();
   double worst_overlap = 0, fastest = 0;
-  while (!sim->finished && sim->time < 3.0) {
+  while (!sim->record.finished && sim->time < 3.0) {
     ASSERT_NO_THROW(sim->step());
     if (sim->step_count % 1000) continue;
     worst_overlap = std::max(worst_overlap, sim->find<ContactForces>()->max_overlap_fraction());

@@ -163,7 +163,7 @@ TEST(ModifiedLeesEdwards, HotRingWithoutMoonletLE1IsStatisticallyLE2) {
   int samples = 0;
   for (long s = 1; s <= steps; ++s) {
     ASSERT_NO_THROW(sim->step()) << "step " << s;
-    ASSERT_FALSE(sim->finished) << "stopped at step " << s << " (a guard)";
+    ASSERT_FALSE(sim->record.finished) << "stopped at step " << s << " (a guard)";
     if (auto* c = sim->find<ContactForces>()) worst = std::max(worst, c->max_overlap_fraction());
     if (s % every) continue;
     const Sample x = sample(*sim, bins);

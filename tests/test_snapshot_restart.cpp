@@ -287,14 +287,14 @@ TEST(Snapshot, ContinuousChannelRestartedDuringARecoveryCountsTheSameAvalanches)
   ASSERT_EQ(ca->avalanche_starts().size(), 1u) << "the count already resumed: the snapshot would not test a recovery";
   const std::string file = write_snapshot(*a, dir, "# continuous channel");
   const double t_snap = a->time;
-  while (!a->finished && a->time < 8.0) a->step();
+  while (!a->record.finished && a->time < 8.0) a->step();
   const StateById uninterrupted = gather_state(*a, true);
 
   auto b = make_sim(channel_case(), over);
   read_snapshot(*b, file);
   b->setup();
   ASSERT_EQ(b->time, t_snap);
-  while (!b->finished && b->time < 8.0) b->step();
+  while (!b->record.finished && b->time < 8.0) b->step();
   const StateById restarted = gather_state(*b, true);
   const auto* cb = b->find<ClogMonitor>();
   int rank;

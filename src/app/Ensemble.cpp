@@ -11,16 +11,14 @@
 #include "core/Interrupt.hpp"
 #include "core/Simulation.hpp"
 #include "io/RunOutput.hpp"
-#include "physics/channel/ChannelWalls.hpp"
-#include "physics/contact/ContactForces.hpp"
+#include "physics/channel/ChannelConfig.hpp"
 #include "physics/channel/FlowField.hpp"
-#include "physics/channel/Inlet.hpp"
 
 namespace cassini {
 
 namespace {
 std::string result(const Simulation& sim, const std::string& key) {
-  for (const auto& [k, v] : sim.results)
+  for (const auto& [k, v] : sim.record.results)
     if (k == key) return v;
   return "";
 }
@@ -49,23 +47,22 @@ int run_ensemble(const Config& base, int runs, RunOutput& out) {
     const auto r0 = std::chrono::steady_clock::now();
     Simulation sim(cfg, MPI_COMM_SELF);
     sim.setup();
-    std::string ended = sim.finish_reason;
+    std::string ended = sim.record.finish_reason;
     double worst = 0;
     try {
       sim.run();
-      if (!sim.finished) ended = "time limit";
-      else ended = sim.finish_reason;
-      interrupted = sim.interrupted;
+      if (!sim.record.finished) ended = "time limit";
+      else ended = sim.record.finish_reason;
+      interrupted = sim.record.interrupted;
       if (interrupted) break;  // an unfinished run is no sample: not in the table
     } catch (const GuardError& e) {
       ended = std::string("guard: ") + e.what();
       std::replace(ended.begin(), ended.end(), ',', ';');
       std::replace(ended.begin(), ended.end(), '\n', ' ');
     }
-    if (const auto* w = sim.find<ChannelWalls>()) worst = std::max(worst, w->max_overlap_fraction());
-    if (const auto* c = sim.find<ContactForces>()) worst = std::max(worst, c->max_overlap_fraction());
-    const auto* inlet = sim.find<Inlet>();
-    const long inserted = inlet ? inlet->inserted() : 0;
+    for (const auto& m : sim.modules) worst = std::max(worst, m->max_overlap_fraction());
+    const std::string ins = result(sim, "inserted");
+    const long inserted = ins.empty() ? 0 : std::stol(ins);
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
     std::string ct = result(sim, "clog_time");
     auto field = [&](const std::string& key) {  // JSON null -> empty; a list -> space-separated

@@ -20,7 +20,6 @@
 #include "io/RunOutput.hpp"
 #include "io/Snapshot.hpp"
 #include "physics/channel/ChannelConfig.hpp"
-#include "physics/channel/StokesDrag.hpp"
 
 namespace fs = std::filesystem;
 using namespace cassini;
@@ -128,31 +127,22 @@ int main(int argc, char** argv) {
          << sim.dt << " s, end = " << cfg.t_end << " s\nactive modules:";
     for (const auto& n : sim.module_names()) head << " [" << n << "]";
     out.log(head.str());
-    if (const auto* drag = sim.find<StokesDrag>()) {
-      const FlowReport& r = drag->flow().report();
-      std::ostringstream os;
-      os << "flow field: " << drag->flow().cache_file() << (r.from_cache ? " (cached)" : " (solved now)")
-         << "\n  Stokes solve " << r.solve_seconds << " s, " << r.iterations << " CG iterations, residual "
-         << r.residual << ", max |div u| " << r.max_divergence << "\n  flow rate error over all cross-sections "
-         << r.flux_error << "; neck mean / far mean " << r.neck_mean_over_mean
-         << "; far field vs duct series (4 D upstream) " << r.far_field_error << " (L2); centre / mean "
-         << r.centre_over_mean;
-      out.log(os.str());
-    }
+    for (const auto& m : sim.modules)
+      if (const std::string report = m->setup_report(); !report.empty()) out.log(report);
     const auto t0 = std::chrono::steady_clock::now();
     const long start = sim.step_count;
     std::string status = "completed", reason = "reached time.end";
     try {
       sim.run(&out);
-      if (sim.finished) reason = sim.finish_reason;
-      if (sim.interrupted) {
+      if (sim.record.finished) reason = sim.record.finish_reason;
+      if (sim.record.interrupted) {
         status = "interrupted";
         std::ostringstream os;
         os << reason << " at step " << sim.step_count << ", t = " << sim.time << " s"
            << (cfg.snapshot_on_signal ? "; last snapshot written (continue with --restart)" : "");
         reason = os.str();
         out.log("INTERRUPTED: " + reason);
-        code = 128 + sim.interrupted;
+        code = 128 + sim.record.interrupted;
       }
     } catch (const GuardError& e) {
       out.log(std::string("STOPPED: ") + e.what() + "\ndiagnostic dump (the state of that step) written to " +

@@ -67,6 +67,9 @@ class Module {
   // Simulation::history (PairHistory.hpp); appended to `out`. Snapshots write it, restarts bring
   // it back into Simulation::history before the first rebuild.
   virtual void contact_history(const Simulation&, PairHistory&) const {}
+  // What the module has to say in run.log once the run is set up (how it got its inputs, e.g.
+  // the flow field's solve or cache); empty for nothing.
+  virtual std::string setup_report() const { return ""; }
 
   // Stress bookkeeping (thesis 3.27, 3.32, 3.34): a module that puts pair forces, wall forces
   // or body forces (anything that is neither) on particles reports them here. Each appends;

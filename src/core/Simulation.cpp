@@ -48,9 +48,9 @@ int Simulation::claim_wall_slots(int n) {
 Simulation::~Simulation() = default;
 
 void Simulation::set_result(const std::string& key, const std::string& json_value) {
-  for (auto& [k, v] : results)
+  for (auto& [k, v] : record.results)
     if (k == key) { v = json_value; return; }
-  results.emplace_back(key, json_value);
+  record.results.emplace_back(key, json_value);
 }
 
 std::vector<std::string> Simulation::module_names() const {
@@ -73,9 +73,9 @@ void Simulation::setup() {
   rebuild();
   for (auto& m : modules) m->setup(*this);  // modules may need the placed particles (and set up data F needs)
   if (!restored) {
-    initial_forces = true;
+    stepping.initial_forces = true;
     compute_forces();
-    initial_forces = false;
+    stepping.initial_forces = false;
     check_initial_overlaps();
     check_initial_speeds();
   }
@@ -124,9 +124,9 @@ void Simulation::check_initial_overlaps() {
 }
 
 void Simulation::rebuild() {
-  forces_cleared = false;  // arrivals and new particles bring forces of their own
+  stepping.forces_cleared = false;  // arrivals and new particles bring forces of their own
   {
-    auto t = timers.scope(StageTimers::Neighbour);  // the modules' lists and histories are part of it
+    auto t = record.timers.scope(StageTimers::Neighbour);  // the modules' lists and histories are part of it
     for (Module* m : stage_[4]) m->pre_rebuild(*this);
   }
   if (cfg.balance_every > 0 && domain.nranks > 1 && rebuilds % cfg.balance_every == 0) {
@@ -136,7 +136,7 @@ void Simulation::rebuild() {
     const bool listed = neighbors.start.size() == particles.nlocal + 1;
     for (std::size_t i = 0; i < particles.nlocal; ++i)
       if (listed) cost[i] += neighbors.start[i + 1] - neighbors.start[i];
-    imbalance = domain.balance(where, cost);
+    record.imbalance = domain.balance(where, cost);
   }
   if (!incoming.empty()) {
     particles.resize(particles.nlocal);  // drop ghosts: owned particles come first
@@ -155,14 +155,14 @@ void Simulation::rebuild() {
     return u;
   };
   {
-    auto t = timers.scope(StageTimers::Comm);
+    auto t = record.timers.scope(StageTimers::Comm);
     const double before = domain.shear.enabled ? potential() : 0.0;
     halo.migrate(particles, history);
     if (domain.shear.enabled) halo.shear_energy += potential() - before;
     if (domain.fed_x) stillborn_potential_ = potential();  // clones removed below take theirs away
   }
   {
-    auto t = timers.scope(StageTimers::Neighbour);
+    auto t = record.timers.scope(StageTimers::Neighbour);
     // Particles drift at most half a skin between rebuilds, so the order by cell decays slowly:
     // re-sorting at every rebuild cost ~5 % of a gas's run for no faster pair loop than every
     // tenth (LAMMPS sorts every 1,000 steps). Results do not depend on the order (each particle
@@ -170,12 +170,12 @@ void Simulation::rebuild() {
     if (rebuilds % kSortEvery == 0) particles.permute_local(NeighborList::spatial_order(particles, domain, range));
   }
   {
-    auto t = timers.scope(StageTimers::Comm);
+    auto t = record.timers.scope(StageTimers::Comm);
     halo.build_ghosts(particles);
   }
   {
     // Pairs listed up to a_i + a_j + reach + skin: lubrication acts across gaps.
-    auto t = timers.scope(StageTimers::Neighbour);
+    auto t = record.timers.scope(StageTimers::Neighbour);
     neighbors.build(particles, domain, range, skin + cfg.pair_reach);
   }
   if (domain.fed_x && remove_stillborn()) {  // rare: ghosts and list again without them
@@ -184,16 +184,16 @@ void Simulation::rebuild() {
     halo.build_ghosts(particles);
     neighbors.build(particles, domain, range, skin + cfg.pair_reach);
   }
-  list_entries += double(neighbors.size());
-  for (const std::uint32_t j : neighbors.partner) ghost_entries += j >= particles.nlocal;
+  record.list_entries += double(neighbors.size());
+  for (const std::uint32_t j : neighbors.partner) record.ghost_entries += j >= particles.nlocal;
   if (domain.nranks > 1) {  // the cost balance the ranks actually ran with (summary.json)
     const double now = domain.imbalance(static_cast<double>(particles.nlocal + neighbors.size()));
-    imbalance_sum += now;
-    imbalance_worst = std::max(imbalance_worst, now);
-    ++imbalance_samples;
+    record.imbalance_sum += now;
+    record.imbalance_worst = std::max(record.imbalance_worst, now);
+    ++record.imbalance_samples;
   }
   {
-    auto t = timers.scope(StageTimers::Neighbour);
+    auto t = record.timers.scope(StageTimers::Neighbour);
     for (Module* m : stage_[4]) m->post_rebuild(*this);
   }
   for (std::size_t i = 0; i < particles.nlocal; ++i) particles.x_build[i] = particles.x[i];
@@ -234,19 +234,19 @@ bool Simulation::remove_stillborn() {
 
 void Simulation::compute_forces() {
   ParticleStore& p = particles;
-  if (all_targets) {
-    if (!forces_cleared) {
+  if (stepping.all_targets) {
+    if (!stepping.forces_cleared) {
       std::fill(p.f.begin(), p.f.begin() + p.nlocal, Vec3::Zero());
       if (p.rotation) std::fill(p.torque.begin(), p.torque.begin() + p.nlocal, Vec3::Zero());
     }
   } else {
-    for (const std::uint32_t i : targets) {
+    for (const std::uint32_t i : stepping.targets) {
       p.f[i].setZero();
       if (p.rotation) p.torque[i].setZero();
     }
   }
   for (Module* m : stage_[1]) {
-    auto t = timers.scope(m->pair_loop() ? StageTimers::Pair : StageTimers::Modules);
+    auto t = record.timers.scope(m->pair_loop() ? StageTimers::Pair : StageTimers::Modules);
     m->force(*this);
   }
 }
@@ -264,14 +264,14 @@ void Simulation::raise_guard(const std::string& why) {
 
 void Simulation::step() {
   const double next_time = (step_count + 1) * dt;  // from the step count: no accumulated round-off
-  stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
-  max_drift2 = 0;
-  max_speed = -1;
-  state_summed = forces_cleared = false;
+  stepping.stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
+  stepping.max_drift2 = 0;
+  stepping.max_speed = -1;
+  stepping.state_summed = stepping.forces_cleared = false;
   ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
   {
-    auto t = timers.scope(StageTimers::Integrate);
+    auto t = record.timers.scope(StageTimers::Integrate);
     for (Module* m : stage_[0]) m->initial_integrate(*this);
   }
   if (domain.shear.enabled) domain.shear.offset = domain.shear.rate * domain.length[1] * time;
@@ -281,35 +281,35 @@ void Simulation::step() {
   // particles (or a particle and a sheared image) that can meet are at most `range` apart in
   // y at the build, so the flow moves them together by at most gamma_dot range dt_build.
   // Streaming particles then do not force rebuilds (a dilute ring rebuilds ~40x less often).
-  double local[2] = {max_drift2, guard_message_.empty() ? 0.0 : 1.0};
+  double local[2] = {stepping.max_drift2, guard_message_.empty() ? 0.0 : 1.0};
   if (!std::isfinite(local[0])) local[1] = 1;
   double global[2];
   {
-    auto t = timers.scope(StageTimers::Comm);
+    auto t = record.timers.scope(StageTimers::Comm);
     MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, domain.comm);
   }
   if (global[1] > 0) check_guards();
   // The halo may reach further than the pair range (self-gravity's pairs): its ghosts must stay valid too.
-  const double approach = 2 * std::sqrt(global[0]) + std::abs(stream) * halo_range;
-  rebuilt_this_step = approach > skin;
+  const double approach = 2 * std::sqrt(global[0]) + std::abs(stepping.stream) * halo_range;
+  const bool rebuilt_this_step = approach > skin;
   if (rebuilt_this_step) {
     rebuild();
   } else {
-    auto t = timers.scope(StageTimers::Comm);
+    auto t = record.timers.scope(StageTimers::Comm);
     halo.update_ghosts(particles);
   }
 
   if (!stage_[5].empty()) {
-    auto t = timers.scope(StageTimers::Integrate);
+    auto t = record.timers.scope(StageTimers::Integrate);
     for (Module* m : stage_[5]) m->pre_force(*this);
   }
   compute_forces();
   {
-    auto t = timers.scope(StageTimers::Integrate);
+    auto t = record.timers.scope(StageTimers::Integrate);
     for (Module* m : stage_[2]) m->final_integrate(*this);
   }
   {
-    auto t = timers.scope(StageTimers::Modules);
+    auto t = record.timers.scope(StageTimers::Modules);
     for (Module* m : stage_[3]) m->end_of_step(*this);
   }
 }
@@ -362,13 +362,13 @@ void Simulation::run(RunSink* out) {
   for (const auto& m : modules)
     if (const std::string e = m->ends_run_at(); !e.empty()) event += (event.empty() ? "" : " or ") + e;
   output_ = out;
-  timers.reset();  // the stages of the step loop only (not set-up, not a previous run)
+  record.timers.reset();  // the stages of the step loop only (not set-up, not a previous run)
   if (out) {
     out->observe(*this);
     if (dump_every) out->dump(*this, "step");
     if (snap_every && !restored && time >= cfg.snapshot_from) out->snapshot(*this);
   }
-  while (step_count < nsteps && !finished) {
+  while (step_count < nsteps && !record.finished) {
     try {
       step();
     } catch (const GuardError&) {
@@ -384,8 +384,8 @@ void Simulation::run(RunSink* out) {
       int flags[2] = {out && domain.rank == 0 && since >= cfg.progress_every, interrupt_signal()}, agreed[2];
       MPI_Allreduce(flags, agreed, 2, MPI_INT, MPI_MAX, domain.comm);
       if (agreed[1]) {
-        interrupted = agreed[1];
-        finish(std::string("interrupted by ") + signal_name(interrupted));
+        record.interrupted = agreed[1];
+        finish(std::string("interrupted by ") + signal_name(record.interrupted));
       }
       if (agreed[0]) {
         n_total = total_particles();  // changes in scenes with an inlet and an outlet
@@ -403,7 +403,7 @@ void Simulation::run(RunSink* out) {
       }
     }
     if (!out) continue;
-    auto t_out = timers.scope(StageTimers::Output);
+    auto t_out = record.timers.scope(StageTimers::Output);
     if (step_count % observe_every == 0) out->observe(*this);
     if (dump_every && step_count % dump_every == 0) out->dump(*this, "step");
     if (snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt) out->snapshot(*this);
@@ -422,8 +422,8 @@ void Simulation::run(RunSink* out) {
   }
   // A run that a module ended (a clog) gets a last frame with its final state and results; an
   // interrupted one only when the case asks (output.snapshot_on_signal: a frame to continue from).
-  if (out && finished) {
-    const bool wanted = interrupted ? cfg.snapshot_on_signal : snap_every > 0;
+  if (out && record.finished) {
+    const bool wanted = record.interrupted ? cfg.snapshot_on_signal : snap_every > 0;
     const bool written = snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt;
     if (wanted && !written) out->snapshot(*this);
   }

@@ -38,9 +38,6 @@ class Simulation {
   // a restart (which starts with a rebuild) continues bitwise like the uninterrupted run.
   void rebuild();
   bool restored = false;  // state (including F) came from a snapshot
-  // True while setup() evaluates F(0): contact histories (springs) are read, not advanced, so
-  // the first step does not add a step's stretch twice.
-  bool initial_forces = false;
   bool restart_point = false;  // true during the rebuild a snapshot makes (a restart from it starts alike)
   void step();
   // Steps to cfg.t_end; with `out`, prints progress and writes observables and dumps.
@@ -67,42 +64,51 @@ class Simulation {
   struct NewParticle { std::int64_t id; int species; double radius, mass; Vec3 x, v; };
   std::vector<NewParticle> incoming;
 
-  // Set before the initial_integrate stage: the integrator measures, while it drifts, the
-  // largest squared displacement since the last rebuild relative to the imposed flow
-  // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).
-  double stream = 0, max_drift2 = 0;
-  // An integrator may also give a bound on every owned particle's speed relative to the
-  // imposed flow this step (-1: none); the tunnelling guard then needs no scan.
-  double max_speed = -1;
-  // An integrator that touched every owned particle's position, velocity and spin this step may
-  // give the sum of all their components (state_summed): non-finite iff one of them is NaN or
-  // infinite, the check Guards otherwise makes with a pass of its own over the particles.
-  double state_sum = 0;
-  bool state_summed = false;
-  // The integrator zeroed every owned particle's force and torque as its first kick read them
-  // (in the same pass, where a fill of its own went over them again): the force stage need not.
-  // A rebuild clears it (particles arrive and move).
-  bool forces_cleared = false;
+  // What the integrator and the force modules tell each other within a step (set and read
+  // during the step; nothing here is run state a restart keeps).
+  struct StepState {
+    // Set before the initial_integrate stage: the integrator measures, while it drifts, the
+    // largest squared displacement since the last rebuild relative to the imposed flow
+    // (x - x_build - stream * y_build e_x), into max_drift2 (fused: one pass over memory).
+    double stream = 0, max_drift2 = 0;
+    // An integrator may also give a bound on every owned particle's speed relative to the
+    // imposed flow this step (-1: none); the tunnelling guard then needs no scan.
+    double max_speed = -1;
+    // An integrator that touched every owned particle's position, velocity and spin this step may
+    // give the sum of all their components (state_summed): non-finite iff one of them is NaN or
+    // infinite, the check Guards otherwise makes with a pass of its own over the particles.
+    double state_sum = 0;
+    bool state_summed = false;
+    // The integrator zeroed every owned particle's force and torque as its first kick read them
+    // (in the same pass, where a fill of its own went over them again): the force stage need not.
+    // A rebuild clears it (particles arrive and move).
+    bool forces_cleared = false;
 
-  // The owned particles that get forces this step (ascending slots), or all of them. A
-  // multi-rate integrator narrows it between its long steps (Module::pre_force). A force
-  // module loops `const TargetList T = sim.target_list(); for (t < T.count) { i = T[t]; ... }`
-  // (a plain loop, not a callback: accumulators then stay in registers).
-  bool all_targets = true;
-  std::vector<std::uint32_t> targets;
+    // The owned particles that get forces this step (ascending slots), or all of them. A
+    // multi-rate integrator narrows it between its long steps (Module::pre_force). A force
+    // module loops `const TargetList T = sim.target_list(); for (t < T.count) { i = T[t]; ... }`
+    // (a plain loop, not a callback: accumulators then stay in registers).
+    bool all_targets = true;
+    std::vector<std::uint32_t> targets;
+    // A module column (ParticleStore::declare) in which 0 marks a particle whose stored state is
+    // not the present one between a multi-rate integrator's long steps: force loops skip it as a
+    // partner (it is woken before it can touch anything). -1: none.
+    int lazy_column = -1;
+    // True while setup() evaluates F(0): contact histories (springs) are read, not advanced, so
+    // the first step does not add a step's stretch twice.
+    bool initial_forces = false;
+  };
+  StepState stepping;
+  // The targets as a list to loop over.
   struct TargetList {
     const std::uint32_t* list;  // null: every owned particle, in order
     std::size_t count;
     std::size_t operator[](std::size_t t) const { return list ? list[t] : t; }
   };
   TargetList target_list() const {
-    return all_targets ? TargetList{nullptr, particles.nlocal} : TargetList{targets.data(), targets.size()};
+    return stepping.all_targets ? TargetList{nullptr, particles.nlocal}
+                                 : TargetList{stepping.targets.data(), stepping.targets.size()};
   }
-  // A module column (ParticleStore::declare) in which 0 marks a particle whose stored state is
-  // not the present one between a multi-rate integrator's long steps: force loops skip it as a
-  // partner (it is woken before it can touch anything). -1: none.
-  int lazy_column = -1;
-  bool rebuilt_this_step = false;  // the neighbour list was rebuilt in the current step
   // Steps after which output is written (observables, dumps, snapshots) and the last step:
   // an integrator with long steps ends one there, so that output sees a synchronised state.
   bool is_output_step(long step) const;
@@ -113,15 +119,24 @@ class Simulation {
   double halo_range = 0;  // >= range: the ghosts' reach (Config::halo_range)
   long rebuilds = 0;
   static constexpr long kSortEvery = 10;  // rebuilds between spatial sorts of the owned particles
-  StageTimers timers;  // this rank's wall time per stage of the step
-  double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
-  // Max / mean rank cost (particles + neighbour pairs) measured at every rebuild.
-  double imbalance_sum = 0, imbalance_worst = 1;
-  long imbalance_samples = 0;
-  // Neighbour-list entries at the rebuilds, on this rank: all, and those with a ghost partner.
-  // Owned pairs are listed on both rows and evaluated once; a pair across ranks is evaluated on
-  // each side (summary.json: pair evaluations per distinct pair).
-  double list_entries = 0, ghost_entries = 0;
+
+  // What the run records for its reports (run.log, summary.json, the ensemble table).
+  struct RunRecord {
+    StageTimers timers;  // this rank's wall time per stage of the step
+    double imbalance = 1;  // max / mean rank cost at the last balancing (1 when never balanced)
+    // Max / mean rank cost (particles + neighbour pairs) measured at every rebuild.
+    double imbalance_sum = 0, imbalance_worst = 1;
+    long imbalance_samples = 0;
+    // Neighbour-list entries at the rebuilds, on this rank: all, and those with a ghost partner.
+    // Owned pairs are listed on both rows and evaluated once; a pair across ranks is evaluated on
+    // each side (summary.json: pair evaluations per distinct pair).
+    double list_entries = 0, ghost_entries = 0;
+    bool finished = false;
+    std::string finish_reason;
+    int interrupted = 0;  // the signal (SIGTERM, SIGINT) that stopped the run at a step boundary, 0 if none
+    std::vector<std::pair<std::string, std::string>> results;
+  };
+  RunRecord record;
 
   std::vector<std::unique_ptr<Module>> modules;  // integrator first, guards last (ModuleRegistry.hpp)
   // A module with a tangential spring per particle and wall (plane walls, channel faces, the
@@ -144,12 +159,11 @@ class Simulation {
 
   // A module may end the run early (collectively: every rank calls it on the same step), and
   // publish results for summary.json (values are JSON text).
-  void finish(const std::string& why) { finished = true; finish_reason = why; }
+  void finish(const std::string& why) {
+    record.finished = true;
+    record.finish_reason = why;
+  }
   void set_result(const std::string& key, const std::string& json_value);
-  bool finished = false;
-  std::string finish_reason;
-  int interrupted = 0;  // the signal (SIGTERM, SIGINT) that stopped the run at a step boundary, 0 if none
-  std::vector<std::pair<std::string, std::string>> results;
   // Module state read from a snapshot (see Module::save_state); empty for a fresh run.
   std::vector<std::pair<std::string, double>> restart_state;
   bool restart_value(const std::string& key, double& value) const {

@@ -14,10 +14,8 @@
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 #include "core/Version.hpp"
-#include "physics/contact/ContactForces.hpp"
 #include "io/IoFailure.hpp"
 #include "io/Snapshot.hpp"
-#include "physics/ring/Moonlet.hpp"
 
 namespace fs = std::filesystem;
 
@@ -26,8 +24,7 @@ namespace cassini {
 namespace {
 // observables.csv's own columns; the modules' (Module::observables) follow.
 const char* const kObservablesHeader =
-    "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz,contacts,collisions,"
-    "mean_overlap_over_radius,max_overlap_over_radius,moonlet_contacts";
+    "step,time,particles,kinetic_energy,elastic_energy,px,py,pz,T_xx,T_yy,T_zz";
 }  // namespace
 
 namespace {
@@ -168,12 +165,6 @@ void RunOutput::observe(Simulation& sim) {
     const Vec3 dv = p.v[i] - mean - sim.imposed_flow(p.x[i]);
     for (int d = 0; d < 3; ++d) local[1 + d] += p.mass[i] * dv[d] * dv[d];
   }
-  auto* contact = sim.find<ContactForces>();
-  const auto* moonlet = sim.find<Moonlet>();
-  local[4] = contact ? double(contact->contacts()) : 0.0;
-  local[5] = contact ? double(contact->take_collisions()) : 0.0;
-  local[6] = contact ? contact->overlap_sum() : 0.0;
-  local[7] = moonlet ? double(moonlet->contacts()) : 0.0;
   if (p.copies) {  // modified Lees-Edwards boundaries: LE1's population and the feed's counts
     for (std::size_t i = 0; i < p.nlocal; ++i) local[8] += p.le_copy[i] == 0;
     local[9] = double(sim.halo.fed);
@@ -181,17 +172,13 @@ void RunOutput::observe(Simulation& sim) {
   }
   double sums[12];
   MPI_Allreduce(local, sums, 12, MPI_DOUBLE, MPI_SUM, comm_);
-  double overlap = contact ? contact->max_overlap_fraction() : 0.0, max_overlap = 0;
-  MPI_Allreduce(&overlap, &max_overlap, 1, MPI_DOUBLE, MPI_MAX, comm_);
   std::vector<std::pair<std::string, double>> own;  // the modules' own columns (collective)
   for (const auto& m : sim.modules) m->observables(sim, own);
   if (rank_ != 0) return;
   if (!header_written_) write_header(own);
-  const double contacts = sums[4];
   obs_ << std::setprecision(12) << sim.step_count << "," << sim.time << "," << n << "," << ke << "," << pe << ","
        << mom[0] << "," << mom[1] << "," << mom[2] << "," << sums[1] / mass << "," << sums[2] / mass << ","
-       << sums[3] / mass << "," << contacts / 2 << "," << sums[5] << "," << (contacts > 0 ? sums[6] / contacts : 0.0)
-       << "," << max_overlap << "," << sums[7];
+       << sums[3] / mass;
   for (const auto& [name, value] : own) obs_ << "," << value;
   obs_ << "\n";
   checked_flush(obs_, "observables.csv");
@@ -203,12 +190,7 @@ void RunOutput::observe(Simulation& sim) {
                   {"elastic_energy", {pe}},
                   {"momentum", {mom[0], mom[1], mom[2]}},
                   {"velocity_variance", variance},
-                  {"granular_temperature", {(variance[0] + variance[1] + (dims == 3 ? variance[2] : 0.0)) / dims}},
-                  {"contacts", {contacts / 2}},
-                  {"collisions", {sums[5]}},
-                  {"mean_overlap_over_radius", {contacts > 0 ? sums[6] / contacts : 0.0}},
-                  {"max_overlap_over_radius", {max_overlap}},
-                  {"moonlet_contacts", {sums[7]}}};
+                  {"granular_temperature", {(variance[0] + variance[1] + (dims == 3 ? variance[2] : 0.0)) / dims}}};
   for (const auto& [name, value] : own) row.push_back({name, {value}});
   if (p.copies)
     row.insert(row.end(), {{"le1_particles", {sums[8]}}, {"fed_into_le1", {sums[9]}}, {"drained_from_le1", {sums[10]}}});
@@ -269,8 +251,8 @@ std::string json_string(const std::string& text) {
 void RunOutput::summary(Simulation& sim, double wall, long steps, const std::string& status, const std::string& reason) {
   // MPI calls of the step loop, read before this function makes its own.
   namespace mc = mpi_counters;
-  const mc::Counts mpi = sim.timers.mpi();
-  const auto stage_calls = sim.timers.collectives();
+  const mc::Counts mpi = sim.record.timers.mpi();
+  const auto stage_calls = sim.record.timers.collectives();
   std::array<double, 2 * mc::kKinds + StageTimers::kStages> mine_mpi{}, sum_mpi{};
   for (int k = 0; k < mc::kKinds; ++k) {
     mine_mpi[k] = double(mpi.calls[k]);
@@ -280,7 +262,7 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   MPI_Reduce(mine_mpi.data(), sum_mpi.data(), int(mine_mpi.size()), MPI_DOUBLE, MPI_SUM, 0, comm_);
   // Pair evaluations per distinct pair: owned pairs once (listed twice), pairs across ranks
   // (and periodic self-images) on each side.
-  const double entries[2] = {sim.list_entries, sim.ghost_entries};
+  const double entries[2] = {sim.record.list_entries, sim.record.ghost_entries};
   double entries_sum[2] = {0, 0};
   MPI_Reduce(entries, entries_sum, 2, MPI_DOUBLE, MPI_SUM, 0, comm_);
   const double owned_pairs = 0.5 * (entries_sum[0] - entries_sum[1]);
@@ -296,7 +278,7 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   MPI_Bcast(&wall0, 1, MPI_DOUBLE, 0, comm_);
   constexpr int ns = StageTimers::kStages + 1;
   std::array<double, ns> t{};
-  const auto stage_seconds = sim.timers.seconds();
+  const auto stage_seconds = sim.record.timers.seconds();
   for (int k = 0; k < StageTimers::kStages; ++k) t[k] = stage_seconds[k];
   double staged = 0;
   for (int k = 0; k < StageTimers::kStages; ++k) staged += t[k];
@@ -368,10 +350,10 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   js << ",\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
   for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << num(sim.domain.cuts[r]);
   js << "],\n  \"decomposition\": " << json_string(sim.cfg.decomposition);
-  js << ",\n  \"imbalance_at_last_balancing\": " << num(sim.imbalance);
+  js << ",\n  \"imbalance_at_last_balancing\": " << num(sim.record.imbalance);
   js << ",\n  \"pair_evaluations_per_pair\": " << num(evaluations_per_pair);
-  js << ",\n  \"imbalance_mean\": " << num(sim.imbalance_samples ? sim.imbalance_sum / sim.imbalance_samples : 1.0);
-  js << ",\n  \"imbalance_worst\": " << num(sim.imbalance_worst) << ",\n  \"active_modules\": [";
+  js << ",\n  \"imbalance_mean\": " << num(sim.record.imbalance_samples ? sim.record.imbalance_sum / sim.record.imbalance_samples : 1.0);
+  js << ",\n  \"imbalance_worst\": " << num(sim.record.imbalance_worst) << ",\n  \"active_modules\": [";
   const auto names = sim.module_names();
   for (std::size_t k = 0; k < names.size(); ++k) js << (k ? ", " : "") << json_string(names[k]);
   js << "],\n  \"final_kinetic_energy\": " << num(ke) << ",\n  \"stage_seconds\": {";
@@ -379,8 +361,8 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
     js << (k ? ", " : "") << "\n    " << json_string(stage_name(k)) << ": {\"min\": " << num(tmin[k])
        << ", \"mean\": " << num(tsum[k] / sim.domain.nranks) << ", \"max\": " << num(tmax[k]) << "}";
   js << "\n  }";
-  if (sim.finished) js << ",\n  \"ended\": " << json_string(sim.finish_reason);
-  for (const auto& [k, v] : sim.results) js << ",\n  " << json_string(k) << ": " << v;
+  if (sim.record.finished) js << ",\n  \"ended\": " << json_string(sim.record.finish_reason);
+  for (const auto& [k, v] : sim.record.results) js << ",\n  " << json_string(k) << ": " << v;
   js << "\n}\n";
   write_text("summary.json", js.str());
 }

@@ -310,7 +310,7 @@ void write_contacts(hid_t file, const Simulation& sim, hid_t dxpl) {
 std::vector<std::pair<std::string, std::string>> results_of_rank0(const Simulation& sim) {
   std::string packed;
   if (sim.domain.rank == 0)
-    for (const auto& [key, json] : sim.results) packed += key + '\0' + json + '\0';
+    for (const auto& [key, json] : sim.record.results) packed += key + '\0' + json + '\0';
   long long size = static_cast<long long>(packed.size());
   MPI_Bcast(&size, 1, MPI_LONG_LONG, 0, sim.domain.comm);
   packed.resize(static_cast<std::size_t>(size));

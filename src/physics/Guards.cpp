@@ -21,10 +21,10 @@ void Guards::initial_integrate(Simulation& sim) {
   // (relative to the flow); this step moved it by d_now - d_before, at most sqrt(this step's
   // max d^2) + sqrt(the last step's) (a rebuild in between only shrinks d_before). In a normal
   // run the skin keeps that far below the limit, and the per-particle scan never runs.
-  const double bound = std::sqrt(sim.max_drift2) + std::sqrt(last_drift2_);
-  last_drift2_ = sim.max_drift2;
+  const double bound = std::sqrt(sim.stepping.max_drift2) + std::sqrt(last_drift2_);
+  last_drift2_ = sim.stepping.max_drift2;
   if (bound * bound <= 0.98 * step_limit2_) return;  // 2 %: the flow's change across y is in d too
-  if (sim.max_speed >= 0 && (sim.dt * sim.max_speed) * (sim.dt * sim.max_speed) <= step_limit2_) return;
+  if (sim.stepping.max_speed >= 0 && (sim.dt * sim.stepping.max_speed) * (sim.dt * sim.stepping.max_speed) <= step_limit2_) return;
   // Scan: the velocity now is the half-step velocity the drift just used.
   const ParticleStore& p = sim.particles;
   std::size_t worst = 0;
@@ -94,14 +94,14 @@ void Guards::end_of_step(Simulation& sim) {
   // The integrator's sum, when it took one as it wrote the state (Simulation::state_sum), spares
   // the pass: a position moved after its drift (an exact-scheme onset or exit) comes with a
   // force in this step's velocities, and shows in the next step's drift.
-  if (sim.all_targets && sim.state_summed) {
-    s[0] = sim.state_sum;
-  } else if (sim.all_targets) {
+  if (sim.stepping.all_targets && sim.stepping.state_summed) {
+    s[0] = sim.stepping.state_sum;
+  } else if (sim.stepping.all_targets) {
     add(p.x, p.nlocal);
     add(p.v, p.nlocal);
     if (p.rotation) add(p.omega, p.nlocal);
   } else {  // between a multi-rate integrator's long steps only its targets took forces; all are scanned at its end
-    for (const std::uint32_t i : sim.targets) {
+    for (const std::uint32_t i : sim.stepping.targets) {
       s[0] += p.x[i].sum();
       s[1] += p.v[i].sum();
       if (p.rotation) s[2] += p.omega[i].sum();

@@ -47,7 +47,7 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
   Vec3* F = p.f.data();  // zeroed once read: the step's forces start from zero (Simulation::forces_cleared)
   const double* IM = p.inv_mass.data();
   const Vec3* XB = p.x_build.data();
-  const double stream = sim.stream;
+  const double stream = sim.stepping.stream;
   // The largest displacement since the last rebuild (see Simulation::stream), with two
   // accumulators: halves the max-reduction dependency chain. Likewise the sum of the new
   // positions' components, for Guards' finiteness check (free in this memory-bound pass, where
@@ -80,10 +80,10 @@ void VelocityVerlet::initial_integrate(Simulation& sim) {
     m1 = std::max(m1, advance(i + 1, s1));
   }
   if (i < n) m0 = std::max(m0, advance(i, s0));
-  sim.max_drift2 = std::max(m0, m1);
+  sim.stepping.max_drift2 = std::max(m0, m1);
   position_sum_ = s0 + s1;
   if (p.rotation) kick_spins(p, h, true);  // their sum is taken after the step's second kick
-  sim.forces_cleared = true;
+  sim.stepping.forces_cleared = true;
 }
 
 void VelocityVerlet::final_integrate(Simulation& sim) {
@@ -111,8 +111,8 @@ void VelocityVerlet::final_integrate(Simulation& sim) {
   }
   double sum = s0 + s1 + s2;
   if (p.rotation) sum += kick_spins(p, h, false);
-  sim.state_sum = position_sum_ + sum;
-  sim.state_summed = true;
+  sim.stepping.state_sum = position_sum_ + sum;
+  sim.stepping.state_summed = true;
 }
 
 }  // namespace cassini

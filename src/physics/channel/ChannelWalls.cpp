@@ -94,7 +94,7 @@ void ChannelWalls::force(Simulation& sim) {
       }
       const Vec3 n(c.nx, c.ny, 0);
       const double delta = a - c.distance;
-      if (wall_contact(law_, p, i, n, delta, wall_springs(p, fric, i, first_slot_ + c.feature), move, 0, limit_, !sim.initial_forces))
+      if (wall_contact(law_, p, i, n, delta, wall_springs(p, fric, i, first_slot_ + c.feature), move, 0, limit_, !sim.stepping.initial_forces))
         deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);

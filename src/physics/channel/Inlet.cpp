@@ -34,6 +34,7 @@ void Inlet::setup(Simulation& sim) {
   if (sim.restart_value("inlet.next_id", v)) next_id_ = static_cast<std::int64_t>(v);
   if (sim.restart_value("inlet.inserted", v)) inserted_ = static_cast<long>(v);
   if (sim.restart_value("inlet.failed_top_ups", v)) short_ = static_cast<long>(v);
+  sim.set_result("inserted", std::to_string(inserted_));
   if (sim.restored) return;
   const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   // A channel that starts full: beads are at the neck from the first step instead of arriving
@@ -123,6 +124,7 @@ bool Inlet::fill(Simulation& sim, double x0, double length, std::uint64_t stream
     added_energy_ += 0.5 * sp.density * volume(q.a) * v.squaredNorm();
   }
   inserted_ += static_cast<long>(added.size());
+  sim.set_result("inserted", std::to_string(inserted_));
   sim.rebuild();
   return full;
 }

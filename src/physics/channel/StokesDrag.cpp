@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <sstream>
 
 #include "core/Simulation.hpp"
 #include "physics/channel/ChannelWalls.hpp"
@@ -88,6 +89,17 @@ void StokesDrag::force(Simulation& sim) {
     power += f.dot(p.v[i]);  // the half-step velocity: the work of this force over the step
   }
   work_ += power * sim.dt;
+}
+
+std::string StokesDrag::setup_report() const {
+  const FlowReport& r = flow_->report();
+  std::ostringstream os;
+  os << "flow field: " << flow_->cache_file() << (r.from_cache ? " (cached)" : " (solved now)")
+     << "\n  Stokes solve " << r.solve_seconds << " s, " << r.iterations << " CG iterations, residual " << r.residual
+     << ", max |div u| " << r.max_divergence << "\n  flow rate error over all cross-sections " << r.flux_error
+     << "; neck mean / far mean " << r.neck_mean_over_mean << "; far field vs duct series (4 D upstream) "
+     << r.far_field_error << " (L2); centre / mean " << r.centre_over_mean;
+  return os.str();
 }
 
 }  // namespace cassini

@@ -43,6 +43,7 @@ class StokesDrag : public Module {
   double confinement(double a) const;  // drag factor of the floor and ceiling (drag.confinement)
   double energy_input() const override { return work_; }
   const FlowField& flow() const { return *flow_; }
+  std::string setup_report() const override;  // how the flow field was obtained, and its checks
   const VolumeFraction& fraction() const { return phi_field_; }
   double phi_of(std::size_t i) const { return phi_[i]; }
   // The flow's direction: -1 reverses it (a back-flush after a clog, clog.backflush).

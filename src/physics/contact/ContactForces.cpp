@@ -25,7 +25,7 @@ void ContactForces::force(Simulation& sim) {
   // of the 50k gas executes 14 % fewer instructions with friction and 18 % without
   // (scripts/bench-instructions), bitwise the same result.
   law_.with_parts([&](const auto& parts) {
-    if (sim.all_targets && !limit_.on() && !sim.domain.shear.enabled) evaluate<true>(sim, parts);
+    if (sim.stepping.all_targets && !limit_.on() && !sim.domain.shear.enabled) evaluate<true>(sim, parts);
     else evaluate<false>(sim, parts);
   });
 }
@@ -38,7 +38,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const NeighborList& nl = sim.neighbors;
   constexpr bool fric = Parts::friction;
   constexpr bool rolls = Parts::rolling;  // rolling and twisting resistance (friction is on)
-  const bool advance = !sim.initial_forces;  // F(0) reads the springs; the steps move them
+  const bool advance = !sim.stepping.initial_forces;  // F(0) reads the springs; the steps move them
   if (fric && springs_.entries() != nl.size()) springs_.reset(nl.size(), rolls);
   long contacts = 0;
   double worst = 0;
@@ -103,7 +103,7 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   const Simulation::TargetList targets = sim.target_list();
   // Between the multi-rate integrator's long steps, a free particle's stored state is that of
   // an earlier time: it is skipped (it is woken before it can touch anything).
-  const double* LAZY = Plain || sim.lazy_column < 0 ? nullptr : p.module_columns[sim.lazy_column].data.data();
+  const double* LAZY = Plain || sim.stepping.lazy_column < 0 ? nullptr : p.module_columns[sim.stepping.lazy_column].data.data();
   // Three passes, none of whose few branches a gas can predict badly (cachegrind --branch-sim;
   // with ~1.7 entries a row and one in eight touching, a single loop mispredicted about one
   // branch per entry, and a mispredicted branch behind a contact's long chain of square roots
@@ -474,6 +474,17 @@ ModuleKind ContactForces::kind() {
             if (c->law_.rolling()) c->roll_column_ = sim.history.declare("roll", 3);
             return c;
           }};
+}
+
+void ContactForces::observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) {
+  const double local[3] = {double(contacts_), double(take_collisions()), overlap_sum_};
+  double sums[3], worst = 0;
+  MPI_Allreduce(local, sums, 3, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  MPI_Allreduce(&max_overlap_, &worst, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  out.insert(out.end(), {{"contacts", sums[0] / 2},  // each pair counted on both owned sides
+                         {"collisions", sums[1]},
+                         {"mean_overlap_over_radius", sums[0] > 0 ? sums[2] / sums[0] : 0.0},
+                         {"max_overlap_over_radius", worst}});
 }
 
 void ContactForces::setup(Simulation& sim) {

@@ -55,6 +55,9 @@ class ContactForces : public Module {
   // recomputed from it.
   void setup(Simulation& sim) override;
   double overlap_sum() const { return overlap_sum_; }        // sum of delta / min(a_i, a_j) over contacts
+  // Columns of observables.csv: contacts (pairs touching), collisions (new contacts since the
+  // last row), mean and max overlap over the smaller radius.
+  void observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) override;
   // New contacts (collisions) since the last call, each pair counted once across all ranks.
   long take_collisions() { const long c = collisions_; collisions_ = 0; return c; }
   // Since the last call, over the collisions counted above, from each impact's normal speed u

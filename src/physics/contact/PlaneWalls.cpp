@@ -64,7 +64,7 @@ void PlaneWalls::force(Simulation& sim) {
       const Plane& pl = planes_[w];
       const double delta = a - (p.x[i] - pl.point).dot(pl.normal);
       if (wall_contact(law_, p, i, pl.normal, delta, wall_springs(p, law_.friction(), i, first_slot_ + w), move, 0,
-                       limit_, !sim.initial_forces))
+                       limit_, !sim.stepping.initial_forces))
         deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);

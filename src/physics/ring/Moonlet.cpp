@@ -86,7 +86,7 @@ void Moonlet::force(Simulation& sim) {
     const double d = std::sqrt(d2), delta = reach - d;
     const Vec3 normal = Vec3(x, y, z) / d;
     Vec3 move = Vec3::Zero();
-    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_, limit_, !sim.initial_forces);
+    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_, limit_, !sim.stepping.initial_forces);
     if (!move.isZero(0)) shifts_.add(i, move);
     if (!touching) continue;
     deepest.see(delta, A[i], p.id[i]);
@@ -147,6 +147,13 @@ void Moonlet::final_integrate(Simulation& sim) {
   shifts_.apply(sim.particles);
   const Simulation::TargetList t = sim.target_list();
   limit_.finish_step(sim.particles, t.list, t.count, sim.rebuilds);
+}
+
+void Moonlet::observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) {
+  const double mine = double(contacts_);
+  double all = 0;
+  MPI_Allreduce(&mine, &all, 1, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  out.push_back({"moonlet_contacts", all});
 }
 
 }  // namespace cassini

@@ -45,6 +45,8 @@ class Moonlet : public Module {
   std::int64_t worst_id() const override { return worst_id_; }
   std::string overlap_label() const override { return "moonlet overlap"; }
   long contacts() const { return contacts_; }
+  // A column of observables.csv: moonlet_contacts, the particles touching it.
+  void observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) override;
 
  private:
   // Acceleration / r at squared distance d2: -G M / max(d, R)^3 (inside, the uniform sphere).

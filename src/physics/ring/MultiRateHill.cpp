@@ -88,7 +88,7 @@ std::string MultiRateHill::name() const {
 void MultiRateHill::setup(Simulation& sim) {
   moonlet_ = sim.find<Moonlet>();
   gravity_ = sim.find<SelfGravity>();
-  sim.lazy_column = static_cast<int>(mode_column_);  // kFree = 0: partners the force loops skip between long steps
+  sim.stepping.lazy_column = static_cast<int>(mode_column_);  // kFree = 0: partners the force loops skip between long steps
 }
 
 Vec3 MultiRateHill::moonlet_acceleration(const ParticleStore& p, std::size_t i) const {
@@ -189,7 +189,7 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   make_lists(p);
   watch_dirty_ = true;  // after this step's ghost update has carried the new modes
   // Drift bound from here (the stream at t0 is one step short of this step's).
-  const double stream0 = sim.stream - (sim.domain.shear.enabled ? sim.domain.shear.rate * dt_ : 0.0);
+  const double stream0 = sim.stepping.stream - (sim.domain.shear.enabled ? sim.domain.shear.rate * dt_ : 0.0);
   free_drift_ = free_dy_ = free_speed_ = free_vz_ = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (mode_of(p, i) != kFree) continue;
@@ -280,7 +280,7 @@ void MultiRateHill::find_watched(const Simulation& sim) {
 void MultiRateHill::initial_integrate(Simulation& sim) {
   if (!in_long_step_) begin_long_step(sim);
   ParticleStore& p = sim.particles;
-  const double dt = dt_, h = 0.5 * dt_, stream = sim.stream, c = rot_c_, s = rot_s_;
+  const double dt = dt_, h = 0.5 * dt_, stream = sim.stepping.stream, c = rot_c_, s = rot_s_;
   const bool planar = planar_;
   Vec3* X = p.x.data();
   Vec3* V = p.v.data();
@@ -321,8 +321,8 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
     m0 = std::max(m0, bound * bound);
     u2 = std::max(u2, 1.25 * M * M + free_vz_ * free_vz_);  // |u_x| <= M/2, |u_y| <= M
   }
-  sim.max_drift2 = m0;
-  sim.max_speed = std::sqrt(u2);
+  sim.stepping.max_drift2 = m0;
+  sim.stepping.max_speed = std::sqrt(u2);
   if (p.rotation)
     for (const std::uint32_t i : contact_) p.omega[i] += (h * p.inv_inertia[i]) * p.torque[i];
   contact_particle_steps += static_cast<long long>(contact_.size());
@@ -379,8 +379,8 @@ void MultiRateHill::pre_force(Simulation& sim) {
     make_lists(p);
     find_watched(sim);  // the woken's free partners: checked from the next step, as on another rank
   }
-  sim.all_targets = last;
-  if (!last) sim.targets = contact_;
+  sim.stepping.all_targets = last;
+  if (!last) sim.stepping.targets = contact_;
 }
 
 void MultiRateHill::final_integrate(Simulation& sim) {

@@ -700,7 +700,7 @@ void SelfGravity::force(Simulation& sim) {
   apply_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!mesh) return;
   cached_potential_ = u;
-  cached_step_ = sim.all_targets ? sim.step_count : -1;
+  cached_step_ = sim.stepping.all_targets ? sim.step_count : -1;
   report(sim);
 }
 
@@ -740,7 +740,7 @@ void SelfGravity::solve_all(Simulation& sim, long step, bool add_short_to_forces
 // A long step's end (every particle synchronised: all are targets) solves for everyone; the
 // integrator gives the kicks. Between, the particles on contact steps get their short range.
 void SelfGravity::force_multirate(Simulation& sim) {
-  if (sim.all_targets) {
+  if (sim.stepping.all_targets) {
     solve_all(sim, sim.step_count, true);  // the short range enters the contact steps' Verlet kicks; free particles' f is unused
     short_now_ = cached_short_;             // a particle woken at this step is owed its short range
     return;
