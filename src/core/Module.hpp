@@ -50,7 +50,7 @@ class Module {
 
   virtual void setup(Simulation&) {}
   virtual void initial_integrate(Simulation&) {}
-  // Before any force: a multi-rate integrator sets Simulation::targets here.
+  // Before any force: a multi-rate integrator sets Simulation::stepping.targets here.
   virtual void pre_force(Simulation&) {}
   // Forces on the owned particles Simulation::for_each_target names (all, but under a
   // multi-rate integrator between its long steps).

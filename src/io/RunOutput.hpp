@@ -44,7 +44,7 @@ class RunOutput : public RunSink {
   void summary(Simulation& sim, double wall_seconds, long steps_run, const std::string& status,
                const std::string& reason);
   void error_summary(const std::string& reason);     // rank 0: an error before or outside the step loop
-  // Rank 0, after summary(): the table of time per stage of the step (Simulation::timers).
+  // Rank 0, after summary(): the table of time per stage of the step (Simulation::record.timers).
   const std::string& timing() const { return timing_; }
   void snapshot(Simulation& sim) override;           // collective: dir/snap_<step>.h5md
   const std::string& dir() const { return dir_; }
