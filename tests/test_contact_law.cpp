@@ -1312,28 +1312,18 @@ TEST(ContactLaw, AdhesionPullOffIsDmtsForce) {
   // that the sphere stays and settles; above it the sphere leaves.
   const double fa = 4 * std::numbers::pi * kGamma * kA, e = 0.5, tc = 1e-4;
   const double g_jump = fa / ((1 + e) * kMass);
-  const std::string text = R"(
-modules = ["contact", "walls", "gravity"]
-[domain]
-lo = [-0.05, -0.05, 0.0]
-hi = [0.05, 0.05, 0.05]
-boundary = ["periodic", "periodic", "wall"]
-[[species]]
-density = 2500.0
-radius = 0.001
-t_c = 1.0e-4
-e = 0.5
-surface_energy = 5.0
-[particles]
-init = "none"
-[time]
-n_c = 20
-end = 1.0
-)";
+  // kFloor's sphere without friction or rolling resistance, with adhesion, room above to leave.
+  const std::vector<std::string> adhesive = {"species.0.mu_s=0.0", "species.0.mu_d=0.0", "species.0.mu_r=0.0",
+                                             "species.0.mu_o=0.0", "species.0.surface_energy=5.0",
+                                             "domain.hi=[0.05, 0.05, 0.05]"};
+  auto floor = [&](std::vector<std::string> over) {
+    over.insert(over.end(), adhesive.begin(), adhesive.end());
+    return make_sim(kFloor, over);
+  };
   for (const std::string scheme : {"exact", "verlet"}) {
     for (double load : {0.5, 0.97, 1.03}) {  // g / g_jump
       const double g = load * g_jump;
-      auto sim = make_sim(text, {"contact.scheme=\"" + scheme + "\"", "gravity.g=[0.0, 0.0, " + std::to_string(g) + "]"});
+      auto sim = floor({"contact.scheme=\"" + scheme + "\"", "gravity.g=[0.0, 0.0, " + std::to_string(g) + "]"});
       const double k = scheme == "exact" ? k_eff_per_mass(e, tc, sim->dt)
                                          : std::pow(std::numbers::pi / tc, 2) + std::pow(std::log(e) / tc, 2);
       sim->particles.add(0, 0, kA, kMass, Vec3(0, 0, kA - fa / (kMass * k)), Vec3::Zero());  // at rest, unloaded
@@ -1359,7 +1349,7 @@ end = 1.0
   // Quasi-static pull-off: loaded just below and just above f_a from the loaded rest overlap.
   for (double load : {0.999, 1.001}) {  // m g / f_a
     const double g = load * fa / kMass;
-    auto sim = make_sim(text, {"gravity.g=[0.0, 0.0, " + std::to_string(g) + "]"});
+    auto sim = floor({"gravity.g=[0.0, 0.0, " + std::to_string(g) + "]"});
     const double k = k_eff_per_mass(e, tc, sim->dt);
     sim->particles.add(0, 0, kA, kMass, Vec3(0, 0, kA - std::max(fa - kMass * g, 0.0) / (kMass * k) - 1e-12), Vec3::Zero());
     sim->setup();
