@@ -199,6 +199,15 @@ TEST(Snapshot, RollingResistanceRestartsBitwise) {
   expect_restart_bitwise(scene);
 }
 
+TEST(Snapshot, AdhesiveContactsRestartBitwise) {
+  // DMT adhesion (capture speed ~3 m/s against 5 m/s grains): contacts that stick across the
+  // snapshot, and their onset and exit steps, continue as in the uninterrupted run.
+  std::string scene = kScene;
+  const std::string at = "mu_d = 0.4\n";
+  scene.insert(scene.find(at) + at.size(), "surface_energy = 100.0\n");
+  expect_restart_bitwise(scene);
+}
+
 TEST(Snapshot, LubricatedPileRestartsBitwise) {
   // Stiff films in a settling pile: the many-film scaling reads each bead's film load from the
   // previous step (particles/grains/lubrication_load), which the snapshot must carry.
