@@ -42,16 +42,9 @@ void ChannelWalls::post_rebuild(Simulation& sim) {
     candidates_[i] = geometry_.near_features(p.x[i][0], p.x[i][1], p.radius[i] + sim.skin);
     // A spring of a feature out of reach is zero already (it was not touched at the last
     // step); clearing it here keeps that true without a per-step sweep over every feature.
-    if (fric) {
-      Vec3* xi = &p.wall_xi[i * p.walls + first_slot_];
+    if (fric || p.rolling)
       for (int k = 0; k < nf; ++k)
-        if (!(candidates_[i] >> k & 1)) xi[k].setZero();
-    }
-    if (p.rolling) {
-      Vec3* roll = &p.wall_roll[i * p.walls + first_slot_];
-      for (int k = 0; k < nf; ++k)
-        if (!(candidates_[i] >> k & 1)) roll[k].setZero();
-    }
+        if (!(candidates_[i] >> k & 1)) wall_springs(p, fric, i, first_slot_ + k).relax();
   }
 }
 
@@ -72,17 +65,13 @@ void ChannelWalls::force(Simulation& sim) {
     touching_.clear();
     for (std::uint64_t m = cand; m; m &= m - 1)  // ascending feature order, as contacts() gives
       geometry_.feature_contact(std::countr_zero(m), p.x[i][0], p.x[i][1], reach, touching_);
-    Vec3* xi = fric ? &p.wall_xi[i * p.walls + first_slot_] : nullptr;
-    Vec3* roll = p.rolling ? &p.wall_roll[i * p.walls + first_slot_] : nullptr;
     // Springs of features no longer touched relax to zero (a new contact starts unloaded).
     if (fric) {
       std::uint64_t touched = 0;
       for (const auto& c : touching_)
         if (c.distance < a) touched |= std::uint64_t{1} << c.feature;
-      for (std::uint64_t m = cand & ~touched; m; m &= m - 1) {
-        xi[std::countr_zero(m)].setZero();
-        if (roll) roll[std::countr_zero(m)].setZero();
-      }
+      for (std::uint64_t m = cand & ~touched; m; m &= m - 1)
+        wall_springs(p, fric, i, first_slot_ + std::countr_zero(m)).relax();
     }
     Vec3 move = Vec3::Zero();
     for (const auto& c : touching_) {

@@ -19,6 +19,12 @@ struct WallSprings {
   Vec3* xi = nullptr;
   double* impact = nullptr;
   Vec3* roll = nullptr;
+  // Apart from the wall: a new contact starts unloaded (the impact speed stays until the exact
+  // scheme's exit step is past: wall_contact).
+  void relax() const {
+    if (xi) xi->setZero();
+    if (roll) roll->setZero();
+  }
 };
 
 inline WallSprings wall_springs(ParticleStore& p, bool friction, std::size_t i, int slot) {
@@ -38,8 +44,7 @@ inline bool wall_contact(const LinearSpringDashpot& law, ParticleStore& p, std::
                          const WallSprings& s, Vec3& move, double wall_radius, const DampingLimit& limit,
                          bool advance = true) {
   if (delta <= 0) {  // apart now: a new contact starts unloaded
-    if (s.xi) s.xi->setZero();
-    if (s.roll) s.roll->setZero();
+    s.relax();
     // The exact scheme's exit step: touching a step ago (delta + v_n dt > 0), parted now.
     if (!law.exact() || delta + p.v[i].dot(n) * law.dt() <= 0) {
       if (s.impact) *s.impact = 0;
