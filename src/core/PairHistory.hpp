@@ -36,6 +36,14 @@ class PairHistory {
   const std::vector<Column>& columns() const { return columns_; }
   int width() const { return width_; }  // doubles per row
 
+  // The same columns, no rows.
+  PairHistory columns_only() const {
+    PairHistory h;
+    h.columns_ = columns_;
+    h.width_ = width_;
+    return h;
+  }
+
   std::size_t size() const { return owner.size(); }
   void clear() {
     owner.clear();
@@ -59,9 +67,7 @@ class PairHistory {
     std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
       return owner[a] < owner[b] || (owner[a] == owner[b] && partner[a] < partner[b]);
     });
-    PairHistory sorted;
-    sorted.columns_ = columns_;
-    sorted.width_ = width_;
+    PairHistory sorted = columns_only();
     sorted.owner.reserve(size());
     sorted.partner.reserve(size());
     sorted.values.reserve(values.size());

@@ -156,7 +156,7 @@ void RunOutput::observe(Simulation& sim) {
   const double ke = sim.kinetic_energy(), pe = sim.elastic_energy();
   const Vec3 mom = sim.momentum();
   const long n = sim.total_particles();
-  double local[12] = {0};
+  double local[7] = {0};  // mass, m dv^2 per axis, LE1 population, fed, drained
   for (std::size_t i = 0; i < p.nlocal; ++i) local[0] += p.mass[i];
   double mass = 0;
   MPI_Allreduce(&local[0], &mass, 1, MPI_DOUBLE, MPI_SUM, comm_);
@@ -166,12 +166,12 @@ void RunOutput::observe(Simulation& sim) {
     for (int d = 0; d < 3; ++d) local[1 + d] += p.mass[i] * dv[d] * dv[d];
   }
   if (p.copies) {  // modified Lees-Edwards boundaries: LE1's population and the feed's counts
-    for (std::size_t i = 0; i < p.nlocal; ++i) local[8] += p.le_copy[i] == 0;
-    local[9] = double(sim.halo.fed);
-    local[10] = double(sim.halo.drained);
+    for (std::size_t i = 0; i < p.nlocal; ++i) local[4] += p.le_copy[i] == 0;
+    local[5] = double(sim.halo.fed);
+    local[6] = double(sim.halo.drained);
   }
-  double sums[12];
-  MPI_Allreduce(local, sums, 12, MPI_DOUBLE, MPI_SUM, comm_);
+  double sums[std::size(local)];
+  MPI_Allreduce(local, sums, int(std::size(local)), MPI_DOUBLE, MPI_SUM, comm_);
   std::vector<std::pair<std::string, double>> own;  // the modules' own columns (collective)
   for (const auto& m : sim.modules) m->observables(sim, own);
   if (rank_ != 0) return;
@@ -193,7 +193,7 @@ void RunOutput::observe(Simulation& sim) {
                   {"granular_temperature", {(variance[0] + variance[1] + (dims == 3 ? variance[2] : 0.0)) / dims}}};
   for (const auto& [name, value] : own) row.push_back({name, {value}});
   if (p.copies)
-    row.insert(row.end(), {{"le1_particles", {sums[8]}}, {"fed_into_le1", {sums[9]}}, {"drained_from_le1", {sums[10]}}});
+    row.insert(row.end(), {{"le1_particles", {sums[4]}}, {"fed_into_le1", {sums[5]}}, {"drained_from_le1", {sums[6]}}});
   h5obs_->append(sim.step_count, sim.time, row);
 }
 

@@ -268,8 +268,7 @@ void write_box(hid_t grains, const Simulation& sim, hid_t dxpl) {
 // branch r_i - r_j, force on i; wall contacts: particle id, contact point, branch, force.
 void write_contacts(hid_t file, const Simulation& sim, hid_t dxpl) {
   const MPI_Comm comm = sim.domain.comm;
-  PairHistory history = sim.history;  // the declared columns, no rows (a snapshot follows a rebuild)
-  history.clear();
+  PairHistory history = sim.history.columns_only();
   for (const auto& mod : sim.modules) mod->contact_history(sim, history);
   Handle cg = group(file, "contacts");
   const Rows sr = my_rows(history.size(), comm);
