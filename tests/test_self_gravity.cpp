@@ -562,6 +562,24 @@ TEST(SelfGravity, SameTrajectoriesOnOneAndTwoRanks) {
   }
 }
 
+TEST(SelfGravity, EachRanksMeshBoxIsItsSlabAtAnyShear) {
+  // Slabs across the azimuth on 2 ranks: each rank deposits into and reads from the nodes its
+  // particles touch, a band of ~nx / 2 + 2 columns in every row of the sheared grid. The band
+  // shifts along x from row to row, and the top row's particles reach the bottom row a shear
+  // away: a bounding rectangle would span the whole grid once the shear nears Lx / 2 (and the
+  // mesh memory per rank would no longer fall as 1 / P).
+  auto sim = make_sim(kPatch, {"particles.init=\"random\"", "particles.count=600", "domain.slab_axis=\"x\""});
+  sim->setup();
+  SelfGravity& g = gravity_of(*sim);
+  const long nx = 32, ny = 32;
+  for (const double shear : {0.0, 50.0, 100.0, 130.0, 1234.5}) {
+    sim->domain.shear.offset = shear;
+    g.solve(*sim, false);
+    EXPECT_LE(g.box_nodes(), (ny + 2) * (nx / 2 + 4)) << "shear offset " << shear << " m";
+    EXPECT_GT(g.box_nodes(), 0) << "shear offset " << shear << " m";
+  }
+}
+
 TEST(SelfGravity, EachCopyUnderModifiedLeesEdwardsFeelsItsOwnMass) {
   // Modified Lees-Edwards boundaries run two copies of the box in the same coordinates (LE1,
   // LE2): each copy's mass pulls its own particles only. A pair 10 m apart in one copy attracts

@@ -194,24 +194,20 @@ SelfGravity::Cell SelfGravity::locate(const Vec3& x) const {
   return c;
 }
 
-bool SelfGravity::in_box(int rank, long j) const {
-  return static_cast<long>(wrap(j - boxes_[copy_][4 * rank + 1], ny_)) < boxes_[copy_][4 * rank + 3];
-}
-long SelfGravity::box_row(int rank, long j) const { return static_cast<long>(wrap(j - boxes_[copy_][4 * rank + 1], ny_)); }
-
 SelfGravity::Stencil SelfGravity::stencil(const Vec3& x, int copy) const {
   const Cell c = locate(x);
-  const long* b = &boxes_[copy][4 * rank_];
-  const std::size_t cols = b[2], rows = b[3];
-  const std::size_t i0 = wrap(c.i - b[0], nx_), i1 = wrap(c.i + 1 - b[0], nx_);
-  const std::size_t j0 = wrap(c.j - b[1], ny_), j1 = wrap(c.j + 1 - b[1], ny_);
+  const long* b = box(copy, rank_);
+  const std::size_t rows = b[1], cols = b[2];
+  const std::size_t j0 = static_cast<std::size_t>(c.j - b[0]), j1 = j0 + 1;  // box rows
+  const std::size_t i0s[2] = {wrap(c.i - b[3 + j0], nx_), wrap(c.i - b[3 + j1], nx_)};
+  const std::size_t i1s[2] = {wrap(c.i + 1 - b[3 + j0], nx_), wrap(c.i + 1 - b[3 + j1], nx_)};
   const std::size_t ks[2] = {static_cast<std::size_t>(c.k0 - first_), static_cast<std::size_t>(c.k1 - first_)};
   const double wzs[2] = {1 - c.wz, c.wz};
   Stencil s{};
   for (int l = 0; l < (planar_ ? 1 : 2); ++l)
     for (int bj = 0; bj < 2; ++bj)
       for (int a = 0; a < 2; ++a) {
-        s.node[s.n] = (ks[l] * rows + (bj ? j1 : j0)) * cols + (a ? i1 : i0);
+        s.node[s.n] = (ks[l] * rows + (bj ? j1 : j0)) * cols + (a ? i1s[bj] : i0s[bj]);
         s.w[s.n] = (a ? c.wx : 1 - c.wx) * (bj ? c.wy : 1 - c.wy) * wzs[l];
         ++s.n;
       }
@@ -232,35 +228,62 @@ Vec3 SelfGravity::field(const Vec3& x, int copy) const {
 
 double SelfGravity::potential(const Vec3& x, int copy) const { return interpolate(box_field_[copy][3], stencil(x, copy)); }
 
-// This rank's box for copy_: the columns and rows its owned particles' stencils touch (the
-// whole grid when they wrap around or `whole`), gathered from every rank.
+// This rank's box for copy_: the grid rows its owned particles' stencils touch, counted from
+// the lowest without wrapping (with `whole` every row and one beyond), and in each the cyclic
+// run of columns they touch; the box is as wide as its widest row (the whole grid when a run
+// goes all around, or with `whole`). Gathered from every rank.
 void SelfGravity::set_box(const ParticleStore& p, bool whole) {
-  long lo[2] = {0, 0}, hi[2] = {-1, -1};
-  bool any = false;
+  if (row_owner_.empty()) {
+    row_owner_.resize(ny_);
+    for (int q = 0; q < nranks_; ++q)
+      for (long g = row_lo(q); g < row_lo(q + 1); ++g) row_owner_[g] = q;
+  }
+  long lo = 0, hi = whole ? ny_ : -1;
+  bool any = whole;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (copy_of(p, i) != copy_) continue;
+    const long j = locate(p.x[i]).j;
+    lo = any ? std::min(lo, j) : j;
+    hi = any ? std::max(hi, j + 1) : j + 1;
+    any = true;
+  }
+  const long rows = any ? hi - lo + 1 : 0;
+  std::vector<char> touched(static_cast<std::size_t>(rows) * nx_, 0);  // per box row and column
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (copy_of(p, i) != copy_) continue;
     const Cell c = locate(p.x[i]);
-    const long at[2] = {c.i, c.j};
-    for (int d = 0; d < 2; ++d) {
-      lo[d] = any ? std::min(lo[d], at[d]) : at[d];
-      hi[d] = any ? std::max(hi[d], at[d] + 1) : at[d] + 1;
-    }
-    any = true;
+    for (long r = c.j - lo; r <= c.j + 1 - lo; ++r)
+      for (long col = c.i; col <= c.i + 1; ++col) touched[r * nx_ + wrap(col, nx_)] = 1;
   }
-  const long n[2] = {nx_, ny_};
-  long mine[4];
-  for (int d = 0; d < 2; ++d) {
-    const long width = hi[d] - lo[d] + 1;
-    if (whole || width >= n[d]) {
-      mine[d] = 0;
-      mine[2 + d] = n[d];
-    } else {
-      mine[d] = static_cast<long>(wrap(lo[d], static_cast<int>(n[d])));
-      mine[2 + d] = std::max(0L, width);
+  // Per row, the shortest cyclic run holding every touched column: all but the longest gap.
+  std::vector<long> start(rows, 0);
+  long cols = any ? 1 : 0;
+  for (long r = 0; r < rows; ++r) {
+    const char* t = &touched[r * nx_];
+    long gap = 0, best = 0, best_end = 0;
+    for (long c = 0; c < 2 * nx_; ++c) {
+      gap = t[c % nx_] ? 0 : gap + 1;
+      if (gap > best) {
+        best = std::min(gap, static_cast<long>(nx_));
+        best_end = c + 1;
+      }
     }
+    if (best == nx_) continue;  // nothing touched in this row
+    start[r] = best_end % nx_;
+    cols = std::max(cols, nx_ - best);
   }
-  boxes_[copy_].resize(4 * static_cast<std::size_t>(nranks_));
-  MPI_Allgather(mine, 4, MPI_LONG, boxes_[copy_].data(), 4, MPI_LONG, comm_);
+  const bool all_columns = whole || cols >= nx_;
+  long stride = 3 + rows;
+  MPI_Allreduce(MPI_IN_PLACE, &stride, 1, MPI_LONG, MPI_MAX, comm_);
+  box_stride_[copy_] = stride;
+  std::vector<long> mine(stride, 0);
+  mine[0] = lo;
+  mine[1] = rows;
+  mine[2] = all_columns ? nx_ : cols;
+  for (long r = 0; r < rows; ++r) mine[3 + r] = all_columns ? 0 : start[r];
+  boxes_[copy_].resize(static_cast<std::size_t>(stride) * nranks_);
+  MPI_Allgather(mine.data(), static_cast<int>(stride), MPI_LONG, boxes_[copy_].data(), static_cast<int>(stride), MPI_LONG,
+                comm_);
 }
 
 double SelfGravity::exchange(const std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
@@ -326,8 +349,10 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
 void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double unit, int zlo, int zhi) {
   const int L = last_ - first_ + 1;
   set_box(p, every_layer);
-  const long* mine = &boxes_[copy_][4 * rank_];
-  const std::size_t cols = mine[2], rows = mine[3];
+  const long* mine = box(copy_, rank_);
+  const std::size_t rows = mine[1], cols = mine[2];
+  // Box row r of rank q holds grid row wrap(box(q)[0] + r): its owner's rank, and its first column.
+  auto grid_row = [&](int q, long r) { return static_cast<long>(wrap(box(copy_, q)[0] + r, ny_)); };
 
   // 1. Deposit on the box, then to the rows' owners (as doubles: integers below 2^53 are exact).
   box_mass_.assign(static_cast<std::size_t>(L) * rows * cols, 0);
@@ -342,14 +367,14 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   for (int q = 0; q < nranks_; ++q) {
     const std::size_t before = send_.size();
     for (int b = zlo; b <= zhi; ++b)
-      for (long j = row_lo(q); j < row_lo(q + 1); ++j)
-        if (in_box(rank_, j)) {
-          const std::int64_t* row = &box_mass_[((b - first_) * rows + box_row(rank_, j)) * cols];
+      for (std::size_t r = 0; r < rows; ++r)
+        if (row_owner(grid_row(rank_, r)) == q) {
+          const std::int64_t* row = &box_mass_[((b - first_) * rows + r) * cols];
           for (std::size_t c = 0; c < cols; ++c) send_.push_back(static_cast<double>(row[c]));
         }
     scount[q] = static_cast<int>(send_.size() - before);
     long n = 0;
-    for (long j = r0; j < r1; ++j) n += in_box(q, j) ? boxes_[copy_][4 * q + 2] : 0;
+    for (long r = 0; r < box(copy_, q)[1]; ++r) n += row_owner(grid_row(q, r)) == rank_ ? box(copy_, q)[2] : 0;
     rcount[q] = static_cast<int>(n * (zhi - zlo + 1));
   }
   moved_bytes_ += exchange(send_, scount, recv_, rcount);
@@ -359,10 +384,10 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)
       for (int b = zlo; b <= zhi; ++b)
-        for (long j = r0; j < r1; ++j)
-          if (in_box(q, j)) {
-            std::int64_t* row = &row_mass_[((b - zlo) * my_rows + (j - r0)) * nx_];
-            for (long c = 0, i = boxes_[copy_][4 * q]; c < boxes_[copy_][4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
+        for (long r = 0; r < box(copy_, q)[1]; ++r)
+          if (row_owner(grid_row(q, r)) == rank_) {
+            std::int64_t* row = &row_mass_[((b - zlo) * my_rows + (grid_row(q, r) - r0)) * nx_];
+            for (long c = 0, i = box(copy_, q)[3 + r]; c < box(copy_, q)[2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
               row[i] += static_cast<std::int64_t>(recv_[at++]);
           }
   }
@@ -520,25 +545,26 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
     for (int q = 0; q < nranks_; ++q) {
       const std::size_t before = send_.size();
       for (int a = 0; a < L; ++a)
-        for (long j = r0; j < r1; ++j)
-          if (in_box(q, j)) {
-            const double* row = &row_field[(a * my_rows + (j - r0)) * nx_];
-            for (long c = 0, i = boxes_[copy_][4 * q]; c < boxes_[copy_][4 * q + 2]; ++c, i = i + 1 == nx_ ? 0 : i + 1) send_.push_back(row[i]);
+        for (long r = 0; r < box(copy_, q)[1]; ++r)
+          if (row_owner(grid_row(q, r)) == rank_) {
+            const double* row = &row_field[(a * my_rows + (grid_row(q, r) - r0)) * nx_];
+            for (long c = 0, i = box(copy_, q)[3 + r]; c < box(copy_, q)[2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
+              send_.push_back(row[i]);
           }
       scount[q] = static_cast<int>(send_.size() - before);
       long n = 0;
-      for (long j = row_lo(q); j < row_lo(q + 1); ++j) n += in_box(rank_, j) ? 1 : 0;
+      for (std::size_t r = 0; r < rows; ++r) n += row_owner(grid_row(rank_, r)) == q ? 1 : 0;
       rcount[q] = static_cast<int>(L * n * cols);
     }
     moved_bytes_ += exchange(send_, scount, recv_, rcount);
-    std::vector<double>& box = box_field_[copy_][fields[f]];
-    box.resize(static_cast<std::size_t>(L) * rows * cols);
+    std::vector<double>& field = box_field_[copy_][fields[f]];
+    field.resize(static_cast<std::size_t>(L) * rows * cols);
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)
       for (int a = 0; a < L; ++a)
-        for (long j = row_lo(q); j < row_lo(q + 1); ++j)
-          if (in_box(rank_, j)) {
-            std::copy(&recv_[at], &recv_[at] + cols, &box[(a * rows + box_row(rank_, j)) * cols]);
+        for (std::size_t r = 0; r < rows; ++r)
+          if (row_owner(grid_row(rank_, r)) == q) {
+            std::copy(&recv_[at], &recv_[at] + cols, &field[(a * rows + r) * cols]);
             at += cols;
           }
   }

@@ -137,6 +137,8 @@ class SelfGravity : public Module {
   // copy: under modified Lees-Edwards boundaries, 0 = LE1 (the main box), 1 = LE2 (the feed).
   Vec3 field(const Vec3& x, int copy = 0) const;
   double potential(const Vec3& x, int copy = 0) const;
+  // Grid nodes per layer in this rank's part of the mesh (its box) at the last solve.
+  long box_nodes(int copy = 0) const { return box(copy, rank_)[1] * box(copy, rank_)[2]; }
   // The short-range acceleration of particle i (owned) from its partners within r_s, owned or
   // ghosts, and (if asked) its short-range potential: from the partners listed at the last rebuild.
   Vec3 short_range(const ParticleStore& p, std::size_t i, double* phi = nullptr) const {
@@ -176,11 +178,16 @@ class SelfGravity : public Module {
   double interpolate(const std::vector<double>& g, const Stencil& s) const;
   void kernels(double k, double d, double& phi, double& az) const;
   // The box of grid nodes this rank deposits into and interpolates from, per copy (every rank's,
-  // after set_box): layers first_..last_ of the solve, rows b[1] + [0, b[3]), columns b[0] +
-  // [0, b[2]), both cyclic, b = &boxes_[copy][4 * rank]. in_box and box_row read copy_'s.
+  // after set_box): layers first_..last_ of the solve, box rows r = 0 .. b[1] - 1 holding grid row
+  // wrap(b[0] + r), and in box row r the columns b[3 + r] + [0, b[2]) (cyclic), b = box(copy, rank).
+  // Each box row has its own first column: on the sheared grid a slab's particles cover a band
+  // that shifts along x from row to row, and the particles of the top row reach the bottom row
+  // at columns a shear away (a grid row may then appear twice, the box's first and last). A
+  // bounding rectangle would reach half the grid.
   void set_box(const ParticleStore& p, bool whole);
-  bool in_box(int rank, long j) const;
-  long box_row(int rank, long j) const;
+  const long* box(int copy, int rank) const { return &boxes_[copy][static_cast<std::size_t>(box_stride_[copy]) * rank]; }
+  // The rank that owns grid row g of the real-space mesh; rows owned by `rank`: [row_lo(rank), row_lo(rank + 1)).
+  int row_owner(long g) const { return row_owner_[g]; }
   // Rows and mode columns owned by `rank`: [row_lo(rank), row_lo(rank + 1)).
   long row_lo(int rank) const { return static_cast<long>(ny_) * rank / nranks_; }
   long col_lo(int rank) const { return static_cast<long>(nx_ / 2 + 1) * rank / nranks_; }
@@ -211,7 +218,9 @@ class SelfGravity : public Module {
   int rank_, nranks_;
   int first_ = 0, last_ = -1;            // the layers of the last solve's fields
   int copies_ = 1, copy_ = 0;            // fields solved (2 under modified Lees-Edwards), the one in hand
-  std::vector<long> boxes_[2];           // per copy, 4 per rank: column start, row start, columns, rows
+  std::vector<long> boxes_[2];           // per copy, box_stride_[copy] per rank: first grid row, rows, columns, first column per row
+  long box_stride_[2] = {0, 0};        // per copy: the longs per rank in boxes_
+  std::vector<int> row_owner_;  // per grid row of the real-space mesh
   std::vector<double> box_field_[2][4];  // per copy: a_x, a_y, a_z, phi on this rank's box
   std::vector<double> row_field_;        // one field on the owned rows
   std::vector<std::int64_t> box_mass_;   // the deposit on this rank's box
