@@ -327,6 +327,17 @@ def attempt(plan, scene, code, ranks, prior1, fn):
     return rr
 
 
+def tiny_lammps(binary, rdir, ranks, transport):
+    """A 1,000-particle, 100-step gas in LAMMPS `binary` (of the bundle): (it ran, its exit code)."""
+    rl = os.path.join(rdir, binary)
+    os.makedirs(rl, exist_ok=True)
+    app = exe(os.path.join(BIN, binary)) + ["-in", os.path.join(CB, "peers/in.gas"), "-log", os.path.join(rl, "log.lammps"),
+                                            "-screen", "none", "-var", "nx", "10", "-var", "ny", "10", "-var", "nz", "10",
+                                            "-var", "friction", "1", "-var", "nsteps", "100"]
+    r = run_mpi(ranks, app, rl, 15, transport)
+    return r["rc"] == 0 and parse_lammps(os.path.join(rl, "log.lammps"))[0] is not None, r["rc"]
+
+
 def preflight():
     """A 2-rank cassini and LAMMPS run of a tiny gas under each transport until one works."""
     global TRANSPORT
@@ -339,26 +350,14 @@ def preflight():
         r = run_mpi(ranks, cassini_app(os.path.join(rdir, "case.toml"), os.path.join(rdir, "out")), rdir, 15, v)
         ok = r["rc"] == 0 and os.path.exists(os.path.join(rdir, "out/summary.json"))
         if ok:
-            rl = os.path.join(rdir, "lmp")
-            os.makedirs(rl, exist_ok=True)
-            app = exe(os.path.join(BIN, "lmp")) + ["-in", os.path.join(CB, "peers/in.gas"), "-log", os.path.join(rl, "log.lammps"),
-                                                   "-screen", "none", "-var", "nx", "10", "-var", "ny", "10", "-var", "nz", "10",
-                                                   "-var", "friction", "1", "-var", "nsteps", "100"]
-            r2 = run_mpi(ranks, app, rl, 15, v)
-            ok = r2["rc"] == 0 and parse_lammps(os.path.join(rl, "log.lammps"))[0] is not None
+            ok = tiny_lammps("lmp", rdir, ranks, v)[0]
         say(f"  -> {'works' if ok else 'fails'} (cassini {r['wall']:.1f}s)")
         if ok:
             TRANSPORT = v
             global LMP_SRC
             if os.path.exists(os.path.join(BIN, "lmp-src")):
-                rs = os.path.join(rdir, "lmp-src")
-                os.makedirs(rs, exist_ok=True)
-                app = exe(os.path.join(BIN, "lmp-src")) + ["-in", os.path.join(CB, "peers/in.gas"), "-log", os.path.join(rs, "log.lammps"),
-                                                           "-screen", "none", "-var", "nx", "10", "-var", "ny", "10", "-var", "nz", "10",
-                                                           "-var", "friction", "1", "-var", "nsteps", "100"]
-                r3 = run_mpi(ranks, app, rs, 15, v)
-                LMP_SRC = r3["rc"] == 0 and parse_lammps(os.path.join(rs, "log.lammps"))[0] is not None
-                say(f"  source-built LAMMPS (lmp-src): {'runs' if LMP_SRC else 'does not run here (rc %s)' % r3['rc']}")
+                LMP_SRC, rc = tiny_lammps("lmp-src", rdir, ranks, v)
+                say(f"  source-built LAMMPS (lmp-src): {'runs' if LMP_SRC else 'does not run here (rc %s)' % rc}")
             return True
     return False
 
