@@ -351,7 +351,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   set_box(p, every_layer);
   const long* mine = box(copy_, rank_);
   const std::size_t rows = mine[1], cols = mine[2];
-  // Box row r of rank q holds grid row wrap(box(q)[0] + r): its owner's rank, and its first column.
+  // Box row r of rank q holds grid row grid_row(q, r) (owned by row_owner() of it) from column box(q)[3 + r] on.
   auto grid_row = [&](int q, long r) { return static_cast<long>(wrap(box(copy_, q)[0] + r, ny_)); };
 
   // 1. Deposit on the box, then to the rows' owners (as doubles: integers below 2^53 are exact).

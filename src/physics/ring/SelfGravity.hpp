@@ -219,8 +219,8 @@ class SelfGravity : public Module {
   int first_ = 0, last_ = -1;            // the layers of the last solve's fields
   int copies_ = 1, copy_ = 0;            // fields solved (2 under modified Lees-Edwards), the one in hand
   std::vector<long> boxes_[2];           // per copy, box_stride_[copy] per rank: first grid row, rows, columns, first column per row
-  long box_stride_[2] = {0, 0};        // per copy: the longs per rank in boxes_
-  std::vector<int> row_owner_;  // per grid row of the real-space mesh
+  long box_stride_[2] = {0, 0};          // per copy: the longs per rank in boxes_
+  std::vector<int> row_owner_;           // per grid row of the real-space mesh: the rank owning it
   std::vector<double> box_field_[2][4];  // per copy: a_x, a_y, a_z, phi on this rank's box
   std::vector<double> row_field_;        // one field on the owned rows
   std::vector<std::int64_t> box_mass_;   // the deposit on this rank's box
