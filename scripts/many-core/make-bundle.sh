@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the relocatable bundle (cassini + Debian's LAMMPS + Debian's Open MPI 4.1 runtime) on
-# the Debian 12 machine: /tmp/devbundle-stage/cassini-bundle -> OUT/cassini-bundle.tar.xz, plus the
+# the Debian 12 machine: a staging copy -> OUT/cassini-bundle.tar.xz, plus the
 # scripts that run it (OUT defaults to ./.devbundle: keep it git-ignored, carry it to the many-core machine)
 #   make-bundle.sh <cassini build dir> <cassini source checkout> [OUT]
 # (cassini's copy of ../shared/tools/many-core/make-bundle.sh: it also carries the source-built
@@ -13,9 +13,10 @@ BUILD=$(cd "${1:?build dir}" && pwd); SRC=$(cd "${2:?source checkout}" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 SHARED=${MANY_CORE_TOOLS:-$SRC/../shared/tools/many-core}  # run-scaling.sh, env.sh, rsswrap.sh
 OUTDIR=${3:-$PWD/.devbundle}; mkdir -p "$OUTDIR"; OUTDIR=$(cd "$OUTDIR" && pwd)
-STAGE=/tmp/devbundle-stage; B=$STAGE/cassini-bundle
+# a staging folder of its own (never a fixed path that could be someone else's), removed on exit
+STAGE=$(mktemp -d -t cassini-devbundle.XXXXXX); trap 'rm -rf "$STAGE"' EXIT; B=$STAGE/cassini-bundle
 ML=/usr/lib/x86_64-linux-gnu
-rm -rf "$STAGE"; mkdir -p "$B/usr/bin" "$B/usr/lib/x86_64-linux-gnu/openmpi/lib/openmpi3" \
+mkdir -p "$B/usr/bin" "$B/usr/lib/x86_64-linux-gnu/openmpi/lib/openmpi3" \
   "$B/usr/lib/x86_64-linux-gnu/pmix2/lib/pmix" "$B/usr/lib/x86_64-linux-gnu/pmix2/share" \
   "$B/usr/lib/x86_64-linux-gnu/hwloc" "$B/usr/share" "$B/etc/openmpi" "$B/etc/pmix" "$B/glibc" "$B/peers" "$B/scripts"
 L=$B/usr/lib/x86_64-linux-gnu

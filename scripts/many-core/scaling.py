@@ -89,13 +89,13 @@ def descendants(pid):
                     parent[int(d)] = int(f.read().rsplit(")", 1)[1].split()[1])
             except (OSError, ValueError, IndexError):
                 pass
-    todo = [pid]
-    while todo:
-        p = todo.pop()
+    pending = [pid]
+    while pending:
+        p = pending.pop()
         for c, pp in parent.items():
             if pp == p:
                 kids.append(c)
-                todo.append(c)
+                pending.append(c)
     return kids
 
 
