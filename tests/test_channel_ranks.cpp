@@ -1,6 +1,7 @@
 // The clogging scene on 1 and on 2 ranks gives bitwise the same beads: insertion is drawn
 // identically on every rank, phi is summed in fixed point (order-free), and contact and
-// wall forces are summed per particle in a fixed order. Also the inlet/outlet bookkeeping
+// wall forces are summed per particle in a fixed order; the two-way coupled flow is solved alike
+// on every rank. Also the inlet/outlet bookkeeping
 // on 2 ranks: inserted = present + removed. Run with 2 ranks.
 #include <gtest/gtest.h>
 
@@ -51,6 +52,13 @@ TEST(ChannelRanks, MetisCellsBalancedEveryRebuildWithLubricationAgreeBitwise) {
   // Lubrication widens the pair range to a + a + d/2: ghosts reach further.
   one_vs_two_ranks({"domain.decomposition=\"metis\"", "domain.balance_every=1",
                     "modules=[\"contact\", \"channel\", \"drag\", \"inlet\", \"clog\", \"lubrication\"]"});
+}
+
+TEST(ChannelRanks, TwoWayCoupledFlowUnderAPressureDriveAgreesBitwise) {
+  // The coupled flow is deposited in fixed point and solved on every rank with Eigen's own
+  // Cholesky: every rank holds the same correction, whatever the split (a low tolerance makes it
+  // re-solve often).
+  one_vs_two_ranks({"flow.coupling=\"two-way\"", "flow.drive=\"pressure\"", "flow.coupling_tolerance=0.01"});
 }
 
 TEST(ChannelRanks, PrefilledChannelAgreesBitwise) {

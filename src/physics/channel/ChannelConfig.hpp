@@ -29,6 +29,10 @@ struct ChannelConfig {
   bool embedded_walls = true;   // flow.walls: angled walls at their true position, not staircased
   int series_terms = 40;        // odd terms of the duct series
   std::string cache_dir;        // where flow_<hash>.h5 goes
+  bool two_way = false;           // flow.coupling = "two-way": the beads' drag acts on the fluid (FlowCoupling.hpp)
+  bool pressure_drive = false;    // flow.drive = "pressure": fixed pressure drop instead of fixed flow rate
+  int coupling_resolution = 4;    // coarse coupling grid cells per neck width
+  double coupling_tolerance = 0.05;  // re-solve when the beads' forcing moved by this fraction of its size
 
   // [drag]
   std::string voidage = "beetstra";  // beetstra | thesis | stokes

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <sstream>
 
 #include "core/CaseFile.hpp"
@@ -89,6 +90,42 @@ std::string cache_key(const Config& cfg, const SolveBox& b) {
   return os.str();
 }
 
+}  // namespace
+
+StokesGrid channel_stokes_grid(const Config& cfg, double x0, int nx, double dx) {
+  const ChannelConfig& ch = cfg.get<ChannelConfig>();
+  auto geo = std::make_shared<const ChannelGeometry>(ch);
+  auto walls = std::make_shared<const WallDistance>(ch);
+  const double y0 = cfg.lo[1];
+  StokesGrid g;
+  g.nx = nx;
+  g.ny = static_cast<int>(std::lround((cfg.hi[1] - cfg.lo[1]) / dx));
+  g.nz = static_cast<int>(std::lround((cfg.hi[2] - cfg.lo[2]) / dx));
+  g.dx = dx;
+  g.viscosity = ch.viscosity;
+  // A point is fluid when it is inside by more than rounding: points on a wall (the 45 degree
+  // walls pass through cell centres and corners) are wall on both sides of the axis, whatever
+  // the last bit of their coordinates, so the grid and the field stay mirror-symmetric.
+  auto fluid_xy = [geo, walls, dx](double x, double y) { return geo->inside(x, y) && walls->nearest(x, y).distance > 1e-9 * dx; };
+  if (ch.embedded_walls) g.fluid_at = [fluid_xy, x0, y0, dx](double X, double Y) { return fluid_xy(x0 + X * dx, y0 + Y * dx); };
+  g.fluid.assign(std::size_t(g.nx) * g.ny * g.nz, 0);
+  for (int i = 0; i < g.nx; ++i)
+    for (int j = 0; j < g.ny; ++j) {
+      const bool in = fluid_xy(x0 + (i + 0.5) * dx, y0 + (j + 0.5) * dx);
+      for (int k = 0; k < g.nz; ++k) g.fluid[(std::size_t(i) * g.ny + j) * g.nz + k] = in;
+    }
+  std::vector<char> first(g.fluid.begin(), g.fluid.begin() + g.ny * g.nz);
+  std::vector<char> last(g.fluid.end() - g.ny * g.nz, g.fluid.end());
+  if (first != last)
+    throw ConfigError(cfg.source + ": key 'flow.solve_half_length': the solve region must end where the channel has "
+                      "the same cross-section at both ends");
+  const double W = cfg.hi[1] - cfg.lo[1], H = cfg.hi[2] - cfg.lo[2];
+  g.inflow = duct_profile(g.ny, g.nz, dx, first, ch.mean_velocity * W * H);
+  return g;
+}
+
+namespace {
+
 struct Solved {
   std::vector<double> u, v, w;  // nodes of the solve region (nx+1)(ny+1)(nz+1)
   FlowReport report;
@@ -97,29 +134,10 @@ struct Solved {
 Solved compute(const Config& cfg, const SolveBox& b) {
   const ChannelConfig& ch = cfg.get<ChannelConfig>();
   const ChannelGeometry geo(ch);
-  StokesGrid g;
-  g.nx = b.nx; g.ny = b.ny; g.nz = b.nz; g.dx = b.dx;
-  g.viscosity = ch.viscosity;
-  // A point is fluid when it is inside by more than rounding: points on a wall (the 45 degree
-  // walls pass through cell centres and corners) are wall on both sides of the axis, whatever
-  // the last bit of their coordinates, so the grid and the field stay mirror-symmetric.
   const WallDistance walls(ch);
-  auto fluid_xy = [&](double x, double y) { return geo.inside(x, y) && walls.nearest(x, y).distance > 1e-9 * b.dx; };
-  if (ch.embedded_walls) g.fluid_at = [&](double X, double Y) { return fluid_xy(b.x0 + X * b.dx, b.y0 + Y * b.dx); };
-  g.fluid.assign(std::size_t(b.nx) * b.ny * b.nz, 0);
-  for (int i = 0; i < b.nx; ++i)
-    for (int j = 0; j < b.ny; ++j) {
-      const bool in = fluid_xy(b.x0 + (i + 0.5) * b.dx, b.y0 + (j + 0.5) * b.dx);
-      for (int k = 0; k < b.nz; ++k) g.fluid[(std::size_t(i) * b.ny + j) * b.nz + k] = in;
-    }
-  std::vector<char> first(g.fluid.begin(), g.fluid.begin() + b.ny * b.nz);
-  std::vector<char> last(g.fluid.end() - b.ny * b.nz, g.fluid.end());
-  if (first != last)
-    throw ConfigError(cfg.source + ": key 'flow.solve_half_length': the solve region must end where the channel has "
-                      "the same cross-section at both ends");
+  const StokesGrid g = channel_stokes_grid(cfg, b.x0, b.nx, b.dx);
   const double W = cfg.hi[1] - cfg.lo[1], H = cfg.hi[2] - cfg.lo[2];
   const double Q = ch.mean_velocity * W * H;
-  g.inflow = duct_profile(b.ny, b.nz, b.dx, first, Q);
   const StokesSolution s = solve_stokes(g);
 
   Solved out;
@@ -349,15 +367,17 @@ FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
 
   // Nodes over the whole domain: the solve's nodes, and the duct series outside them.
   dx_ = b.dx;
-  inv_dx_ = 1 / b.dx;
+  nodes_.inv_dx = 1 / b.dx;
   const int ilo = static_cast<int>(std::floor((cfg.lo[0] - b.x0) / b.dx)) - 1;
   const int ihi = std::max(static_cast<int>(std::ceil((cfg.hi[0] - b.x0) / b.dx)) + 1, b.nx);
   const int first = std::min(ilo, 0);
+  int* n_ = nodes_.n;
   n_[0] = ihi - first + 1;
   n_[1] = b.ny + 1;
   n_[2] = b.nz + 1;
-  origin_ = Vec3(b.x0 + first * b.dx, b.y0, b.z0);
+  nodes_.origin = Vec3(b.x0 + first * b.dx, b.y0, b.z0);
   const std::size_t plane = std::size_t(n_[1]) * n_[2];
+  std::vector<Vec3>& node_ = nodes_.node;
   node_.assign(n_[0] * plane, Vec3::Zero());
   const double W = cfg.hi[1] - cfg.lo[1];
   const DuctFlow duct(W, cfg.hi[2] - cfg.lo[2], ch.mean_velocity, ch.series_terms);
@@ -375,17 +395,17 @@ FlowField::FlowField(const Config& cfg, MPI_Comm comm) {
   }
 }
 
-Vec3 FlowField::velocity(const Vec3& x) const {
+Vec3 NodeField::at(const Vec3& x) const {
   double f[3];
   int c[3];
   for (int d = 0; d < 3; ++d) {
-    const double s = std::clamp((x[d] - origin_[d]) * inv_dx_, 0.0, double(n_[d] - 1) - 1e-9);
+    const double s = std::clamp((x[d] - origin[d]) * inv_dx, 0.0, double(n[d] - 1) - 1e-9);
     c[d] = static_cast<int>(s);
     f[d] = s - c[d];
   }
   // Trilinear as nested linear interpolations: z, then y, then x.
-  const std::size_t sz = 1, sy = n_[2], sx = std::size_t(n_[1]) * n_[2];
-  const Vec3* p = &node_[c[0] * sx + c[1] * sy + c[2]];
+  const std::size_t sz = 1, sy = n[2], sx = std::size_t(n[1]) * n[2];
+  const Vec3* p = &node[c[0] * sx + c[1] * sy + c[2]];
   auto lerp = [](const Vec3& a, const Vec3& b, double t) { return a + t * (b - a); };
   const Vec3 y0 = lerp(lerp(p[0], p[sz], f[2]), lerp(p[sy], p[sy + sz], f[2]), f[1]);
   const Vec3 y1 = lerp(lerp(p[sx], p[sx + sz], f[2]), lerp(p[sx + sy], p[sx + sy + sz], f[2]), f[1]);

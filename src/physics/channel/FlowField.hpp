@@ -17,8 +17,23 @@
 
 #include "core/Config.hpp"
 #include "core/Vec3.hpp"
+#include "physics/channel/StokesSolver.hpp"
 
 namespace cassini {
+
+// Velocities on a regular grid of nodes, sampled by trilinear interpolation (clamped to the grid).
+struct NodeField {
+  Vec3 origin;            // position of node (0, 0, 0)
+  double inv_dx = 0;
+  int n[3] = {0, 0, 0};   // nodes per direction
+  std::vector<Vec3> node; // node (i * n[1] + j) * n[2] + k
+  Vec3 at(const Vec3& x) const;
+};
+
+// The channel's Stokes grid over [x0, x0 + nx dx] and the domain's cross-section: cubic cells of
+// dx, fluid by their centres, the angled walls embedded where flow.walls says so, and the duct
+// profile at the case's flow rate prescribed at both ends.
+StokesGrid channel_stokes_grid(const Config& cfg, double x0, int nx, double dx);
 
 struct FlowReport {
   double solve_seconds = 0;
@@ -35,16 +50,14 @@ class FlowField {
  public:
   // Loads the cached solve or computes it on rank 0 of comm and caches it (collective).
   FlowField(const Config& cfg, MPI_Comm comm);
-  Vec3 velocity(const Vec3& x) const;
+  Vec3 velocity(const Vec3& x) const { return nodes_.at(x); }
   const FlowReport& report() const { return report_; }
   std::string cache_file() const { return cache_file_; }
   double spacing() const { return dx_; }
 
  private:
-  double dx_ = 0, inv_dx_ = 0;
-  Vec3 origin_;         // position of node (0, 0, 0)
-  int n_[3] = {0, 0, 0};  // nodes per direction
-  std::vector<Vec3> node_;  // velocity at node (i * n_[1] + j) * n_[2] + k, components together
+  double dx_ = 0;
+  NodeField nodes_;
   std::string cache_file_;
   FlowReport report_;
 };

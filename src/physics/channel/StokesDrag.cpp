@@ -38,20 +38,27 @@ double StokesDrag::confinement(double a) const {
 
 void StokesDrag::setup(Simulation& sim) {
   flow_ = std::make_unique<FlowField>(cfg_, sim.domain.comm);
+  if (cfg_.get<ChannelConfig>().two_way) coupling_ = std::make_unique<FlowCoupling>(cfg_);
   refresh_every_ = std::max(1L, std::lround(cfg_.get<ChannelConfig>().phi_refresh / sim.dt));
-  refresh(sim);
+  refresh(sim, true);
 }
 
-void StokesDrag::refresh(Simulation& sim) {
+void StokesDrag::refresh(Simulation& sim, bool solve) {
   // phi, and with it the relaxation factor, is held between refreshes: compute it once here.
   phi_field_.update(sim.particles, sim.domain.comm);
   sample(sim);
+  if (!coupling_) return;
+  const ParticleStore& p = sim.particles;
+  one_way_.resize(p.nlocal);
+  for (std::size_t i = 0; i < p.nlocal; ++i) one_way_[i] = flow_->velocity(p.x[i]);
+  coupling_->update(p, beta_, one_way_, phi_field_, sign_, solve, sim.domain.comm);
 }
 
 void StokesDrag::sample(Simulation& sim) {
   const ParticleStore& p = sim.particles;
   phi_.resize(p.nlocal);
   factor_.resize(p.nlocal);
+  if (coupling_) beta_.resize(p.nlocal);
   const double c = 6 * std::numbers::pi * viscosity_;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     phi_[i] = phi_field_.at(p.x[i][0], p.x[i][1]);
@@ -59,7 +66,12 @@ void StokesDrag::sample(Simulation& sim) {
       const double vol = 4.0 / 3.0 * std::numbers::pi * p.radius[i] * p.radius[i] * p.radius[i];
       phi_[i] = std::max(0.0, phi_[i] - phi_field_.own(p.x[i][0], p.x[i][1], vol));
     }
-    const double beta = c * p.radius[i] * voidage(phi_[i]) * confinement(p.radius[i]) * p.inv_mass[i];
+    double coefficient = c * p.radius[i] * voidage(phi_[i]) * confinement(p.radius[i]);
+    if (coupling_) {
+      coefficient /= 1 - std::min(phi_[i], 0.7);  // the relative velocity is (u - v) / (1 - phi)
+      beta_[i] = coefficient;
+    }
+    const double beta = coefficient * p.inv_mass[i];
     factor_[i] = -std::expm1(-beta * sim.dt) / sim.dt;  // -> beta for beta dt -> 0
   }
 }
@@ -67,7 +79,7 @@ void StokesDrag::sample(Simulation& sim) {
 void StokesDrag::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal && i < factor_.size(); ++i)
-    F[i] += p.mass[i] * factor_[i] * (sign_ * flow_->velocity(p.x[i]) - p.v[i]);
+    F[i] += p.mass[i] * factor_[i] * (fluid_velocity(p.x[i]) - p.v[i]);
 }
 
 void StokesDrag::post_rebuild(Simulation& sim) {
@@ -75,7 +87,7 @@ void StokesDrag::post_rebuild(Simulation& sim) {
   // The field itself is refreshed on its schedule, and at a snapshot, which is where a
   // restart recomputes it (setup) - so a restarted run continues bitwise.
   if (!flow_) return;
-  if (sim.restart_point) refresh(sim);
+  if (sim.restart_point) refresh(sim, true);
   else sample(sim);
 }
 
@@ -84,7 +96,7 @@ void StokesDrag::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   double power = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const Vec3 f = p.mass[i] * factor_[i] * (sign_ * flow_->velocity(p.x[i]) - p.v[i]);
+    const Vec3 f = p.mass[i] * factor_[i] * (fluid_velocity(p.x[i]) - p.v[i]);
     p.f[i] += f;
     power += f.dot(p.v[i]);  // the half-step velocity: the work of this force over the step
   }
@@ -99,7 +111,19 @@ std::string StokesDrag::setup_report() const {
      << ", max |div u| " << r.max_divergence << "\n  flow rate error over all cross-sections " << r.flux_error
      << "; neck mean / far mean " << r.neck_mean_over_mean << "; far field vs duct series (4 D upstream) "
      << r.far_field_error << " (L2); centre / mean " << r.centre_over_mean;
+  if (coupling_)
+    os << "\n  two-way coupling (" << (cfg_.get<ChannelConfig>().pressure_drive ? "fixed pressure drop" : "fixed flow rate")
+       << "): coarse Stokes-Brinkman grid of D / " << cfg_.get<ChannelConfig>().coupling_resolution
+       << " over the channel; bead-free pressure drop " << coupling_->bead_free_pressure_drop() << " Pa at "
+       << coupling_->flow_rate() << " m^3/s";
   return os.str();
+}
+
+void StokesDrag::observables(Simulation&, std::vector<std::pair<std::string, double>>& out) {
+  if (!coupling_) return;
+  out.emplace_back("flow_rate", coupling_->flow_rate());
+  out.emplace_back("pressure_drop", coupling_->pressure_drop());
+  out.emplace_back("flow_solves", double(coupling_->solves()));
 }
 
 }  // namespace cassini

@@ -17,12 +17,17 @@
 //   F = m (1 - exp(-beta dt)) / dt (u - v(t + dt/2)),
 // which is the plain drag force when beta dt << 1 and never overshoots u however stiff:
 // v(t+3dt/2) - u = exp(-beta dt) (v(t+dt/2) - u) for a free particle, exactly.
+//
+// flow.coupling = "two-way": the fluid feels the beads (FlowCoupling.hpp). Then u is the
+// coupled flow, beta carries the 1 / (1 - phi) of the relative velocity, and observables gain
+// the flow rate, the pressure drop and the number of coupled solves.
 #include <memory>
 #include <vector>
 
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
 #include "physics/channel/ChannelConfig.hpp"
+#include "physics/channel/FlowCoupling.hpp"
 #include "physics/channel/FlowField.hpp"
 #include "physics/channel/VolumeFraction.hpp"
 
@@ -48,9 +53,17 @@ class StokesDrag : public Module {
   double phi_of(std::size_t i) const { return phi_[i]; }
   // The flow's direction: -1 reverses it (a back-flush after a clog, clog.backflush).
   void set_flow_sign(double s) { sign_ = s; }
+  // The fluid velocity a bead at x sees.
+  Vec3 fluid_velocity(const Vec3& x) const {
+    return coupling_ ? coupling_->velocity(x, flow_->velocity(x)) : sign_ * flow_->velocity(x);
+  }
+  const FlowCoupling* coupling() const { return coupling_.get(); }
+  // Two-way only: bead i's drag coefficient beta_i (kg/s), F_i = beta_i (u - v_i) (FlowCoupling.hpp).
+  double drag_coefficient(std::size_t i) const { return beta_[i]; }
+  void observables(Simulation& sim, std::vector<std::pair<std::string, double>>& out) override;
 
  private:
-  void refresh(Simulation& sim);  // the phi field from the particles, then sample()
+  void refresh(Simulation& sim, bool solve = false);  // the phi field, sample(), the coupled flow
   void sample(Simulation& sim);   // phi and the relaxation factor per particle from the held field
   const Config& cfg_;
   std::string voidage_;
@@ -58,6 +71,9 @@ class StokesDrag : public Module {
   bool self_volume_, faxen_;
   double height_;
   std::unique_ptr<FlowField> flow_;
+  std::unique_ptr<FlowCoupling> coupling_;
+  std::vector<double> beta_;    // per owned particle: the drag coefficient (kg/s), two-way only
+  std::vector<Vec3> one_way_;   // per owned particle: the one-way field at its centre, two-way only
   VolumeFraction phi_field_;
   long refresh_every_ = 1;
   std::vector<double> phi_;     // per owned particle, in the current slot order

@@ -82,18 +82,45 @@ std::vector<double> duct_profile(int ny, int nz, double dx, const std::vector<ch
   return out;
 }
 
-StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_iterations) {
-  const auto t0 = std::chrono::steady_clock::now();
+struct StokesProblem::Impl {
+  StokesGrid g;
+  Component comp[3];
+  SpMat laplacian[3];  // eta / dx^2 times the velocity Laplacian, without the Brinkman term
+  SpMat A[3];          // what is factorised: the Laplacian plus the Brinkman diagonal
+  Vec inflow_rhs[3];   // the prescribed inflow's part of the right-hand side, per unit inflow
+  SpMat Dm[3];         // divergence, fluid cells x unknown faces
+  Vec inflow_div;      // the prescribed faces' part of the divergence
+  std::vector<int> pid;  // cell -> pressure unknown, or -1
+  int np = 0;
+  bool repeatable = false;
+  Eigen::CholmodSupernodalLLT<SpMat> cholmod[3];
+  Eigen::SimplicialLLT<SpMat> simplicial[3];
+  // With a Brinkman term S is no longer well conditioned (its eigenvalues fall as 1 / B in a
+  // dense pile): CG is then preconditioned by D diag(A)^-1 D^T, a variable-coefficient pressure
+  // Poisson operator that carries the same 1 / (eta / dx^2 + B) weights.
+  bool preconditioned = false, poisson_analysed = false;
+  Eigen::SimplicialLLT<SpMat> pressure_poisson;
+  Vec solve_velocity(int a, const Vec& rhs) const {
+    if (repeatable) return simplicial[a].solve(rhs);
+    return cholmod[a].solve(rhs);
+  }
+  int cell(int i, int j, int k) const { return (i * g.ny + j) * g.nz + k; }
+};
+
+StokesProblem::~StokesProblem() = default;
+
+StokesProblem::StokesProblem(const StokesGrid& g, bool repeatable) : m_(std::make_unique<Impl>()) {
+  Impl& m = *m_;
+  m.g = g;
+  m.repeatable = repeatable;
   const int nx = g.nx, ny = g.ny, nz = g.nz;
-  auto cell = [&](int i, int j, int k) { return (i * ny + j) * nz + k; };
   auto fluid = [&](int i, int j, int k) {
-    return i >= 0 && i < nx && j >= 0 && j < ny && k >= 0 && k < nz && g.fluid[cell(i, j, k)];
+    return i >= 0 && i < nx && j >= 0 && j < ny && k >= 0 && k < nz && g.fluid[m.cell(i, j, k)];
   };
 
   // ---- unknowns: faces between two fluid cells; inflow/outflow faces are prescribed.
-  Component comp[3];
   for (int a = 0; a < 3; ++a) {
-    Component& c = comp[a];
+    Component& c = m.comp[a];
     c.axis = a;
     c.n[0] = nx + (a == 0);
     c.n[1] = ny + (a == 1);
@@ -117,12 +144,11 @@ StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_itera
 
   // ---- velocity Laplacians (times eta / dx^2) and their right-hand sides.
   const double scale = g.viscosity / (g.dx * g.dx);
-  SpMat A[3];
-  Vec b[3];
   for (int a = 0; a < 3; ++a) {
-    Component& c = comp[a];
+    Component& c = m.comp[a];
     std::vector<Triplet> t;
-    b[a] = Vec::Zero(c.count);
+    Vec& b = m.inflow_rhs[a];
+    b = Vec::Zero(c.count);
     for (int i = 0; i < c.n[0]; ++i)
       for (int j = 0; j < c.n[1]; ++j)
         for (int k = 0; k < c.n[2]; ++k) {
@@ -140,101 +166,200 @@ StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_itera
               if (nb < 0 && !inflow && d < 2 && g.fluid_at) theta = wall_distance(g.fluid_at, face_centre(a, i, j, k), d, s, 2.0);
               if (nb >= 0) { diag += 1; t.emplace_back(r, nb, -scale); }
               else if (theta > 0) diag += 1 / std::max(theta, 1e-3);  // no-slip at the wall itself
-              else if (d == a) { diag += 1; b[a][r] += scale * (in ? c.known[c.index(q[0], q[1], q[2])] : 0.0); }
+              else if (d == a) { diag += 1; b[r] += scale * (in ? c.known[c.index(q[0], q[1], q[2])] : 0.0); }
               else diag += 2;  // tangential neighbour behind a wall: no-slip half a cell away
             }
           t.emplace_back(r, r, diag * scale);
         }
-    A[a].resize(c.count, c.count);
-    A[a].setFromTriplets(t.begin(), t.end());
+    m.laplacian[a].resize(c.count, c.count);
+    m.laplacian[a].setFromTriplets(t.begin(), t.end());
   }
 
   // ---- divergence D (fluid cells x unknown faces) and its prescribed part.
-  std::vector<int> pid(nx * ny * nz, -1);
-  int np = 0;
+  m.pid.assign(nx * ny * nz, -1);
   for (int c = 0; c < nx * ny * nz; ++c)
-    if (g.fluid[c]) pid[c] = np++;
-  SpMat Dm[3];
-  Vec rhs_c = Vec::Zero(np);
+    if (g.fluid[c]) m.pid[c] = m.np++;
+  m.inflow_div = Vec::Zero(m.np);
   for (int a = 0; a < 3; ++a) {
-    const Component& c = comp[a];
+    const Component& c = m.comp[a];
     std::vector<Triplet> t;
     for (int i = 0; i < nx; ++i)
       for (int j = 0; j < ny; ++j)
         for (int k = 0; k < nz; ++k) {
-          const int r = pid[cell(i, j, k)];
+          const int r = m.pid[m.cell(i, j, k)];
           if (r < 0) continue;
           int hi[3] = {i, j, k};
           hi[a] += 1;
           const int fl = c.index(i, j, k), fh = c.index(hi[0], hi[1], hi[2]);
           for (auto [f, sign] : {std::pair{fl, -1.0}, std::pair{fh, 1.0}}) {
             if (c.unknown[f] >= 0) t.emplace_back(r, c.unknown[f], sign / g.dx);
-            else rhs_c[r] -= sign * c.known[f] / g.dx;
+            else m.inflow_div[r] -= sign * c.known[f] / g.dx;
           }
         }
-    Dm[a].resize(np, c.count);
-    Dm[a].setFromTriplets(t.begin(), t.end());
+    m.Dm[a].resize(m.np, c.count);
+    m.Dm[a].setFromTriplets(t.begin(), t.end());
   }
-
-  Eigen::CholmodSupernodalLLT<SpMat> chol[3];
   for (int a = 0; a < 3; ++a) {
-    chol[a].compute(A[a]);
-    if (chol[a].info() != Eigen::Success) throw std::runtime_error("Stokes solve: velocity Laplacian not positive definite");
+    m.A[a] = m.laplacian[a];
+    if (repeatable) m.simplicial[a].analyzePattern(m.A[a]);
+    else m.cholmod[a].analyzePattern(m.A[a]);
+  }
+  set_brinkman({});
+}
+
+void StokesProblem::set_brinkman(const std::vector<double>& per_cell) {
+  Impl& m = *m_;
+  m.preconditioned = !per_cell.empty();
+  for (int a = 0; a < 3; ++a) {
+    const Component& c = m.comp[a];
+    if (!per_cell.empty()) {
+      // A face's coefficient is the mean of the two cells it separates (both fluid).
+      m.A[a] = m.laplacian[a];
+      for (int i = 0; i < c.n[0]; ++i)
+        for (int j = 0; j < c.n[1]; ++j)
+          for (int k = 0; k < c.n[2]; ++k) {
+            const int r = c.unknown[c.index(i, j, k)];
+            if (r < 0) continue;
+            int lo[3] = {i, j, k};
+            lo[a] -= 1;
+            const double coefficient = 0.5 * (per_cell[m.cell(lo[0], lo[1], lo[2])] + per_cell[m.cell(i, j, k)]);
+            m.A[a].coeffRef(r, r) += coefficient;
+          }
+    }
+    bool ok;
+    if (m.repeatable) { m.simplicial[a].factorize(m.A[a]); ok = m.simplicial[a].info() == Eigen::Success; }
+    else { m.cholmod[a].factorize(m.A[a]); ok = m.cholmod[a].info() == Eigen::Success; }
+    if (!ok) throw std::runtime_error("Stokes solve: velocity operator not positive definite");
+  }
+  if (!m.preconditioned) return;
+  SpMat P(m.np, m.np);
+  for (int a = 0; a < 3; ++a) {
+    Vec inverse_diagonal = m.A[a].diagonal().cwiseInverse();
+    P += m.Dm[a] * inverse_diagonal.asDiagonal() * SpMat(m.Dm[a].transpose());
+  }
+  // The pure-Neumann operator is singular (constant pressures): a shift of 1e-10 of its diagonal
+  // makes it definite; the constant part of the preconditioned residual is projected out.
+  const double shift = 1e-10 * P.diagonal().mean();
+  for (int c = 0; c < m.np; ++c) P.coeffRef(c, c) += shift;
+  if (!m.poisson_analysed) { m.pressure_poisson.analyzePattern(P); m.poisson_analysed = true; }
+  m.pressure_poisson.factorize(P);
+  if (m.pressure_poisson.info() != Eigen::Success) throw std::runtime_error("Stokes solve: pressure preconditioner failed");
+}
+
+StokesSolution StokesProblem::solve(double inflow_scale, const std::vector<double>* force, double tolerance,
+                                    int max_iterations, const std::vector<double>* pressure_guess) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Impl& m = *m_;
+  const StokesGrid& g = m.g;
+  const int nx = g.nx, ny = g.ny, nz = g.nz, np = m.np;
+  // Right-hand sides: the inflow's part, and the body force (the mean of the two cells).
+  Vec b[3];
+  for (int a = 0; a < 3; ++a) {
+    const Component& c = m.comp[a];
+    b[a] = inflow_scale == 1 ? m.inflow_rhs[a] : Vec(inflow_scale * m.inflow_rhs[a]);
+    if (!force) continue;
+    for (int i = 0; i < c.n[0]; ++i)
+      for (int j = 0; j < c.n[1]; ++j)
+        for (int k = 0; k < c.n[2]; ++k) {
+          const int r = c.unknown[c.index(i, j, k)];
+          if (r < 0) continue;
+          int lo[3] = {i, j, k};
+          lo[a] -= 1;
+          b[a][r] += 0.5 * ((*force)[3 * m.cell(lo[0], lo[1], lo[2]) + a] + (*force)[3 * m.cell(i, j, k) + a]);
+        }
   }
   auto velocity = [&](const Vec& p, Vec* U) {  // U = A^-1 (b + D^T p)
-    for (int a = 0; a < 3; ++a) U[a] = chol[a].solve(b[a] + Dm[a].transpose() * p);
+    for (int a = 0; a < 3; ++a) U[a] = m.solve_velocity(a, b[a] + m.Dm[a].transpose() * p);
   };
   auto schur = [&](const Vec& p) {  // S p = D A^-1 D^T p
     Vec out = Vec::Zero(np);
-    for (int a = 0; a < 3; ++a) out += Dm[a] * chol[a].solve(Dm[a].transpose() * p);
+    for (int a = 0; a < 3; ++a) out += m.Dm[a] * m.solve_velocity(a, m.Dm[a].transpose() * p);
     return out;
   };
 
   // ---- CG on S p = c - D A^-1 b; the pressure is fixed up to a constant (kept at mean 0).
-  Vec r = rhs_c;
+  Vec r = inflow_scale == 1 ? m.inflow_div : Vec(inflow_scale * m.inflow_div);
   {
     Vec U0[3];
     velocity(Vec::Zero(np), U0);
-    for (int a = 0; a < 3; ++a) r -= Dm[a] * U0[a];
+    for (int a = 0; a < 3; ++a) r -= m.Dm[a] * U0[a];
   }
   r.array() -= r.mean();
-  Vec p = Vec::Zero(np), dir = r;
-  const double norm0 = std::max(r.norm(), 1e-300);
-  double rr = r.squaredNorm();
+  Vec p = Vec::Zero(np);
+  const double norm0 = std::max(r.norm(), 1e-300);  // the tolerance is relative to a cold start's residual
+  if (pressure_guess) {
+    for (int c = 0; c < nx * ny * nz; ++c)
+      if (m.pid[c] >= 0) p[m.pid[c]] = (*pressure_guess)[c];
+    r -= schur(p);
+    r.array() -= r.mean();
+  }
   StokesSolution sol;
   int it = 0;
-  for (; it < max_iterations && std::sqrt(rr) > tolerance * norm0; ++it) {
-    Vec Sd = schur(dir);
-    const double alpha = rr / dir.dot(Sd);
-    p += alpha * dir;
-    r -= alpha * Sd;
-    r.array() -= r.mean();
-    const double rr_new = r.squaredNorm();
-    dir = r + (rr_new / rr) * dir;
-    rr = rr_new;
+  if (!m.preconditioned) {
+    Vec dir = r;
+    double rr = r.squaredNorm();
+    for (; it < max_iterations && std::sqrt(rr) > tolerance * norm0; ++it) {
+      Vec Sd = schur(dir);
+      const double alpha = rr / dir.dot(Sd);
+      p += alpha * dir;
+      r -= alpha * Sd;
+      r.array() -= r.mean();
+      const double rr_new = r.squaredNorm();
+      dir = r + (rr_new / rr) * dir;
+      rr = rr_new;
+    }
+  } else {
+    auto precondition = [&](const Vec& x) {
+      Vec z = m.pressure_poisson.solve(x);
+      z.array() -= z.mean();
+      return z;
+    };
+    Vec z = precondition(r), dir = z;
+    double rz = r.dot(z);
+    for (; it < max_iterations && r.norm() > tolerance * norm0; ++it) {
+      Vec Sd = schur(dir);
+      const double alpha = rz / dir.dot(Sd);
+      p += alpha * dir;
+      r -= alpha * Sd;
+      r.array() -= r.mean();
+      z = precondition(r);
+      const double rz_new = r.dot(z);
+      dir = z + (rz_new / rz) * dir;
+      rz = rz_new;
+    }
   }
   sol.iterations = it;
-  sol.residual = std::sqrt(rr) / norm0;
+  sol.residual = r.norm() / norm0;
 
   Vec U[3];
   velocity(p, U);
   std::vector<double>* out[3] = {&sol.u, &sol.v, &sol.w};
   for (int a = 0; a < 3; ++a) {
-    const Component& c = comp[a];
+    const Component& c = m.comp[a];
     out[a]->assign(c.unknown.size(), 0.0);
     for (std::size_t f = 0; f < c.unknown.size(); ++f)
-      (*out[a])[f] = c.unknown[f] >= 0 ? U[a][c.unknown[f]] : c.known[f];
+      (*out[a])[f] = c.unknown[f] >= 0 ? U[a][c.unknown[f]] : inflow_scale * c.known[f];
   }
   sol.p.assign(nx * ny * nz, 0.0);
   for (int c = 0; c < nx * ny * nz; ++c)
-    if (pid[c] >= 0) sol.p[c] = p[pid[c]];
+    if (m.pid[c] >= 0) sol.p[c] = p[m.pid[c]];
+  // Pressure drop between the first and the last layer of cells (means over their fluid cells).
+  double p_in = 0, p_out = 0;
+  int n_in = 0, n_out = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int k = 0; k < nz; ++k) {
+      if (g.fluid[m.cell(0, j, k)]) { p_in += sol.p[m.cell(0, j, k)]; ++n_in; }
+      if (g.fluid[m.cell(nx - 1, j, k)]) { p_out += sol.p[m.cell(nx - 1, j, k)]; ++n_out; }
+    }
+  sol.pressure_drop = p_in / std::max(n_in, 1) - p_out / std::max(n_out, 1);
   // Discrete divergence of the final field, relative to the inflow scale.
   double umax = 1e-300;
-  for (double x : g.inflow) umax = std::max(umax, std::abs(x));
+  for (double x : g.inflow) umax = std::max(umax, std::abs(inflow_scale * x));
+  const Component* comp = m.comp;
   for (int i = 0; i < nx; ++i)
     for (int j = 0; j < ny; ++j)
       for (int k = 0; k < nz; ++k) {
-        if (!g.fluid[cell(i, j, k)]) continue;
+        if (!g.fluid[m.cell(i, j, k)]) continue;
         const double div = sol.u[comp[0].index(i + 1, j, k)] - sol.u[comp[0].index(i, j, k)] +
                            sol.v[comp[1].index(i, j + 1, k)] - sol.v[comp[1].index(i, j, k)] +
                            sol.w[comp[2].index(i, j, k + 1)] - sol.w[comp[2].index(i, j, k)];
@@ -242,6 +367,13 @@ StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_itera
       }
   sol.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return sol;
+}
+
+StokesSolution solve_stokes(const StokesGrid& g, double tolerance, int max_iterations) {
+  const auto t0 = std::chrono::steady_clock::now();
+  StokesSolution s = StokesProblem(g).solve(1.0, nullptr, tolerance, max_iterations);
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
 }
 
 }  // namespace cassini

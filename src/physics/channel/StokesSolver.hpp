@@ -16,7 +16,13 @@
 // with the three velocity Laplacians A factorised once (sparse Cholesky). S is well
 // conditioned on MAC grids (its condition number does not grow with resolution), so CG
 // needs tens of iterations; each costs six triangular solves.
+//
+// Stokes-Brinkman: StokesProblem adds a drag coefficient per cell, -eta lap u + B u + grad p = f
+// (the momentum the particles of a two-way coupled suspension take from the fluid, B u - f,
+// FlowCoupling.hpp). B only adds to the diagonal of A, which stays symmetric positive definite
+// with the same sparsity: a new B costs a numeric refactorisation, the ordering is kept.
 #include <functional>
+#include <memory>
 #include <vector>
 
 namespace cassini {
@@ -39,10 +45,31 @@ struct StokesSolution {
   int iterations = 0;
   double residual = 0;        // relative, of the Schur system
   double max_divergence = 0;  // max |div u| dx / (inflow scale) over fluid cells
+  double pressure_drop = 0;   // mean p of the first layer of cells minus that of the last
   double seconds = 0;
 };
 
 StokesSolution solve_stokes(const StokesGrid& g, double tolerance = 1e-10, int max_iterations = 5000);
+
+// One grid's operator, built once and solved for many Brinkman fields and forces.
+class StokesProblem {
+ public:
+  // repeatable: factorise with Eigen's simplicial Cholesky (no threaded BLAS), so every rank that
+  // solves the same problem gets the same bits; otherwise CHOLMOD's supernodal one (faster).
+  explicit StokesProblem(const StokesGrid& g, bool repeatable = false);
+  ~StokesProblem();
+  // B per cell (nx*ny*nz, kg m^-3 s^-1; a face takes the mean of its two cells); empty: none.
+  void set_brinkman(const std::vector<double>& per_cell);
+  // The inflow profile scaled by inflow_scale, and a body force per cell (3 per cell, N m^-3;
+  // null: none). The solution is linear in both. pressure_guess (a StokesSolution::p) starts the
+  // iteration; the tolerance stays relative to a cold start's residual.
+  StokesSolution solve(double inflow_scale, const std::vector<double>* force, double tolerance = 1e-10,
+                       int max_iterations = 5000, const std::vector<double>* pressure_guess = nullptr) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_;
+};
 
 // Fully developed flow in the cross-section: -lap u = 1 on ny x nz cells with no-slip walls
 // (same discretisation as the 3D solve), scaled to the flow rate q. Solid cells: 0.

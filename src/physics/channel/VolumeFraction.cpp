@@ -74,7 +74,9 @@ void VolumeFraction::update(const ParticleStore& p, MPI_Comm comm) {
   for (std::size_t n = 0; n < phi_.size(); ++n) phi_[n] = total_[n] / kFixedPoint;
 }
 
-double VolumeFraction::at(double x, double y) const {
+double VolumeFraction::at(double x, double y) const { return sample(phi_, 1, 0, x, y); }
+
+double VolumeFraction::sample(const std::vector<double>& field, int channels, int c, double x, double y) const {
   // Bilinear in the node field, which already is the kernel average: a second kernel mean
   // here would smooth twice (an effective width sqrt(2) w instead of w).
   const double s = (x - x0_) / h_, t = (y - y0_) / h_;
@@ -86,7 +88,7 @@ double VolumeFraction::at(double x, double y) const {
   double num = 0, den = 0;
   auto add = [&](int n, double w) {
     if (!fluid_[n]) return;
-    num += w * phi_[n];
+    num += w * field[std::size_t(n) * channels + c];
     den += w;
   };
   add(i * ny_ + j, (1 - fx) * (1 - fy));
@@ -94,9 +96,37 @@ double VolumeFraction::at(double x, double y) const {
   add((i + 1) * ny_ + j, fx * (1 - fy));
   add((i + 1) * ny_ + j + 1, fx * fy);
   if (den > 1e-3) return num / den;
-  double phi = 0;  // no fluid node around (x, y), e.g. deep in a corner: the kernel mean
-  for_nodes(x, y, [&](int n, double w) { phi += w * phi_[n]; });
-  return phi;
+  double value = 0;  // no fluid node around (x, y), e.g. deep in a corner: the kernel mean
+  for_nodes(x, y, [&](int n, double w) { value += w * field[std::size_t(n) * channels + c]; });
+  return value;
+}
+
+void VolumeFraction::deposit(const ParticleStore& p, const std::vector<double>& values, const std::vector<double>& unit,
+                             std::vector<double>& out, MPI_Comm comm) const {
+  const std::size_t channels = unit.size();
+  deposit_sum_.assign(fluid_.size() * channels, 0);
+  deposit_total_.resize(deposit_sum_.size());
+  std::vector<double> scale(channels);
+  for (std::size_t c = 0; c < channels; ++c) scale[c] = kFixedPoint / unit[c];
+  std::vector<std::pair<std::size_t, double>> nonzero;  // a particle's channels that are not 0, scaled
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    nonzero.clear();
+    for (std::size_t c = 0; c < channels; ++c)
+      if (values[i * channels + c] != 0) nonzero.emplace_back(c, values[i * channels + c] * scale[c]);
+    if (nonzero.empty()) continue;
+    for_nodes(p.x[i][0], p.x[i][1], [&](int n, double w) {
+      for (const auto& [c, v] : nonzero) {
+        const double x = v * w;  // rounded half away from zero, as llround, without the call
+        deposit_sum_[n * channels + c] += static_cast<std::int64_t>(x + (x < 0 ? -0.5 : 0.5));
+      }
+    });
+  }
+  MPI_Allreduce(deposit_sum_.data(), deposit_total_.data(), static_cast<int>(deposit_total_.size()), MPI_INT64_T,
+                MPI_SUM, comm);
+  out.resize(deposit_total_.size());
+  const double per_volume = 1 / (h_ * h_ * height_);
+  for (std::size_t k = 0; k < out.size(); ++k)
+    out[k] = static_cast<double>(deposit_total_[k]) / scale[k % channels] * per_volume;
 }
 
 double VolumeFraction::own(double x, double y, double volume) const {

@@ -31,6 +31,16 @@ class VolumeFraction {
   // Sum of phi * node area * height over the nodes: the particles' total volume.
   double integral() const;
 
+  // The same kernel for other per-particle quantities (the two-way coupled drag): `channels`
+  // values per owned particle (values[i * channels + c]) spread as densities per unit volume
+  // (depth-averaged like phi) into out[node * channels + c], summed over ranks in fixed point
+  // with quantum unit[c] * 2^-50 (values up to ~1e3 unit per node), so bitwise the same on any
+  // number of ranks (collective).
+  void deposit(const ParticleStore& p, const std::vector<double>& values, const std::vector<double>& unit,
+               std::vector<double>& out, MPI_Comm comm) const;
+  // Channel c of such a field at (x, y): bilinear over the surrounding fluid nodes, as at().
+  double sample(const std::vector<double>& field, int channels, int c, double x, double y) const;
+
  private:
   template <class F> void for_nodes(double x, double y, F&& f) const;  // f(node, normalised weight)
   const ChannelGeometry& geo_;
@@ -41,6 +51,7 @@ class VolumeFraction {
   std::vector<std::int64_t> sum_, total_;
   mutable std::vector<std::pair<int, double>> scratch_;
   mutable std::vector<double> wx_, wy_;  // the kernel's x and y factors around one particle
+  mutable std::vector<std::int64_t> deposit_sum_, deposit_total_;
 };
 
 }  // namespace cassini
