@@ -58,6 +58,8 @@ void StokesDrag::sample(Simulation& sim) {
   const ParticleStore& p = sim.particles;
   phi_.resize(p.nlocal);
   factor_.resize(p.nlocal);
+  rate_.resize(p.nlocal);
+  lag_.resize(p.nlocal);
   if (coupling_) beta_.resize(p.nlocal);
   const double c = 6 * std::numbers::pi * viscosity_;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
@@ -71,15 +73,17 @@ void StokesDrag::sample(Simulation& sim) {
       coefficient /= 1 - std::min(phi_[i], 0.7);  // the relative velocity is (u - v) / (1 - phi)
       beta_[i] = coefficient;
     }
-    const double beta = coefficient * p.inv_mass[i];
-    factor_[i] = -std::expm1(-beta * sim.dt) / sim.dt;  // -> beta for beta dt -> 0
+    const double beta = coefficient * p.inv_mass[i], x = beta * sim.dt;
+    factor_[i] = -std::expm1(-x) / sim.dt;  // -> beta for beta dt -> 0
+    rate_[i] = beta;
+    lag_[i] = x > 0 ? 1 + std::expm1(-x) / x : 0.0;  // 1 - (1 - e^-x) / x: -> x / 2 for x -> 0
   }
 }
 
 void StokesDrag::add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const {
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal && i < factor_.size(); ++i)
-    F[i] += p.mass[i] * factor_[i] * (fluid_velocity(p.x[i]) - p.v[i]);
+    F[i] += p.mass[i] * rate_[i] * (fluid_velocity(p.x[i]) - p.v[i]);  // the physical drag at this state
 }
 
 void StokesDrag::post_rebuild(Simulation& sim) {
@@ -96,7 +100,9 @@ void StokesDrag::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
   double power = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
-    const Vec3 f = p.mass[i] * factor_[i] * (fluid_velocity(p.x[i]) - p.v[i]);
+    // The other forces on the bead so far (contacts, walls, lubrication: modules before this one)
+    // relax with it over the step; lag_ of them is what the drag takes back.
+    const Vec3 f = p.mass[i] * factor_[i] * (fluid_velocity(p.x[i]) - p.v[i]) - lag_[i] * p.f[i];
     p.f[i] += f;
     power += f.dot(p.v[i]);  // the half-step velocity: the work of this force over the step
   }

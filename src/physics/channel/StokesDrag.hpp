@@ -12,11 +12,16 @@
 // "stokes" (f = 1).
 //
 // Time integration. The relaxation rate beta = 6 pi eta a f / m (1/beta ~ 3e-4 s for a
-// 66 um bead, 40x shorter in a packed clog) can approach 1/dt. The drag is applied as the
-// exact exponential relaxation of the half-step velocity over one step,
-//   F = m (1 - exp(-beta dt)) / dt (u - v(t + dt/2)),
-// which is the plain drag force when beta dt << 1 and never overshoots u however stiff:
-// v(t+3dt/2) - u = exp(-beta dt) (v(t+dt/2) - u) for a free particle, exactly.
+// 66 um bead, 40x shorter in a packed clog) can approach 1/dt. Over one step the bead's velocity
+// relaxes exactly, with the other forces on it (F_o: contacts, walls, lubrication, which the
+// registry sums before the drag) held constant:
+//   v(t+3dt/2) = u + F_o / (m beta) + exp(-beta dt) (v(t+dt/2) - u - F_o / (m beta)),
+// which velocity Verlet's kicks reproduce with the drag force
+//   F = m (1 - exp(-beta dt)) / dt (u - v(t+dt/2)) - (1 - (1 - exp(-beta dt)) / (beta dt)) F_o.
+// It is the plain drag when beta dt << 1, never overshoots however stiff, and a bead held still
+// by contacts feels exactly m beta u: the load on an arch is the pile's full drag. (Without the
+// F_o term a held bead felt (1 - exp(-x)) / x of it, x = beta dt: 0.77 at x = 0.5, in a packed
+// pile at N_c = 5.) Stress output reports the physical drag m beta (u - v).
 //
 // flow.coupling = "two-way": the fluid feels the beads (FlowCoupling.hpp). Then u is the
 // coupled flow, beta carries the 1 / (1 - phi) of the relative velocity, and observables gain
@@ -78,6 +83,8 @@ class StokesDrag : public Module {
   long refresh_every_ = 1;
   std::vector<double> phi_;     // per owned particle, in the current slot order
   std::vector<double> factor_;  // (1 - exp(-beta dt)) / dt per owned particle
+  std::vector<double> rate_;    // beta (1/s) per owned particle
+  std::vector<double> lag_;     // 1 - (1 - exp(-beta dt)) / (beta dt): the share of the other forces taken back
   double work_ = 0;             // done on this rank's particles so far: sum F . v dt
   double sign_ = 1;
 };
