@@ -3,7 +3,7 @@
 # each other), only src/physics/Registry.cpp names the concrete modules' kinds, and the two
 # scenes' physics stay apart: src/physics/ring and src/physics/channel never include each other
 # (both may use src/physics/contact and the generic modules in src/physics). io and app never
-# look a module up by type.
+# look a module up by type, and app includes no module's header.
 
 # Fails when a line of one of `files` matches `regex`.
 function(refuse files regex why)
@@ -33,4 +33,7 @@ endforeach()
 # contact_history, setup_report, ...), never by looking a concrete module up by type.
 file(GLOB outer ${SRC}/io/* ${SRC}/app/*)
 refuse("${outer}" "find<[A-Za-z]+>" "looks a module up by type (io and app go through the Module interface)")
+# The application knows modules only through the registry (ModuleKind: read, make, prepare).
+file(GLOB app ${SRC}/app/*)
+refuse("${app}" "#include \"physics/" "includes a module's header (the app goes through core/ModuleRegistry.hpp)")
 message(STATUS "layering: ok")

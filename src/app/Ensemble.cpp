@@ -9,10 +9,9 @@
 #include <mpi.h>
 
 #include "core/Interrupt.hpp"
+#include "core/ModuleRegistry.hpp"
 #include "core/Simulation.hpp"
 #include "io/RunOutput.hpp"
-#include "physics/channel/ChannelConfig.hpp"
-#include "physics/channel/FlowField.hpp"
 
 namespace cassini {
 
@@ -28,8 +27,9 @@ int run_ensemble(const Config& base, int runs, RunOutput& out) {
   int rank = 0, nranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &nranks);
-  // Solve (or load) the flow once for everybody before the runs read the cache.
-  if (base.has_module("drag")) FlowField warm(base, MPI_COMM_WORLD);
+  // What the runs share (the drag's flow solve, cached), once for everybody before the runs.
+  for (const ModuleKind& kind : module_kinds())
+    if (kind.prepare && base.has_module(kind.name)) kind.prepare(base, MPI_COMM_WORLD);
 
   const std::string header =
       "run,seed,D_over_d,clogged,escapees,clog_time,simulated_time,inserted,max_overlap_over_radius,wall_seconds,"
@@ -39,7 +39,6 @@ int run_ensemble(const Config& base, int runs, RunOutput& out) {
   std::ofstream rows(part);
   rows << header << "\n";
   const auto t0 = std::chrono::steady_clock::now();
-  const double d = 2 * base.species[base.init_species].radius_max;
   int done = 0, interrupted = 0;
   for (int k = rank; k < runs && !interrupted; k += nranks) {
     Config cfg = base;
@@ -71,9 +70,8 @@ int run_ensemble(const Config& base, int runs, RunOutput& out) {
       v.erase(std::remove_if(v.begin(), v.end(), [](char c) { return c == '[' || c == ']' || c == ','; }), v.end());
       return v;
     };
-    rows << k << "," << cfg.seed << ",";
-    if (cfg.has<ChannelConfig>()) rows << cfg.get<ChannelConfig>().neck_width / d;  // empty for a scene without a channel
-    rows << "," << (result(sim, "clogged") == "true" ? 1 : 0)
+    rows << k << "," << cfg.seed << "," << result(sim, "D_over_d")  // empty without a clog monitor
+         << "," << (result(sim, "clogged") == "true" ? 1 : 0)
          << "," << result(sim, "escapees") << "," << (ct == "null" ? "" : ct) << "," << sim.time << "," << inserted << ","
          << worst << "," << wall << "," << field("front_time") << "," << field("escapees_after_front") << ","
          << field("avalanches") << "," << field("avalanche_starts") << "," << field("longest_pause") << "," << ended << ","

@@ -19,7 +19,6 @@
 #include "app/Ensemble.hpp"
 #include "io/RunOutput.hpp"
 #include "io/Snapshot.hpp"
-#include "physics/channel/ChannelConfig.hpp"
 
 namespace fs = std::filesystem;
 using namespace cassini;
@@ -82,7 +81,7 @@ int main(int argc, char** argv) {
     if (legacy_scheme) cfg.exact_contacts = false;
     if (out_dir.empty()) out_dir = "runs/" + fs::path(file).parent_path().filename().string();
     std::vector<RunInput> inputs = {{file, "the case file"}, {restart, "--restart"}, {cfg.init_file, "particles.file"}};
-    if (cfg.has<ChannelConfig>()) inputs.push_back({cfg.get<ChannelConfig>().cache_dir, "flow.cache"});
+    for (const auto& [path, key] : cfg.module_inputs) inputs.push_back({path, key});
     out_ptr = std::make_unique<RunOutput>(out_dir, force, MPI_COMM_WORLD, inputs);
     RunOutput& out = *out_ptr;
     out.command = command;

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <typeindex>
+#include <utility>
 #include <vector>
 
 #include "core/CaseFile.hpp"
@@ -115,6 +116,10 @@ struct Config {
   T& edit() { return std::any_cast<T&>(find_settings(typeid(T))); }
 
   std::vector<Species> species;
+
+  // Files and folders a module's settings name as inputs ({path, case key}): the output
+  // directory must not be one of them or lie inside one (e.g. the drag's flow.cache).
+  std::vector<std::pair<std::string, std::string>> module_inputs;
 
   // initial particles
   std::string init = "random";  // random | lattice | file

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <mpi.h>
+
 #include "core/Module.hpp"
 
 namespace cassini {
@@ -26,6 +28,9 @@ struct ModuleKind {
   // find them: Simulation::find). Claims per-particle wall-spring slots with
   // Simulation::claim_wall_slots.
   std::function<std::unique_ptr<Module>(Simulation&)> make;
+  // Work every run of an ensemble shares, done once by all ranks together before the runs (the
+  // drag's flow solve, which the runs then read from its cache). May be empty.
+  std::function<void(const Config&, MPI_Comm)> prepare;
 };
 
 // Every module a case can list, in the order their forces are summed (part of what makes runs

@@ -99,6 +99,7 @@ void read_channel_config(CaseFile& f, Config& c) {
   ch.coupling_tolerance = f.positive("flow.coupling_tolerance", 0.05);
   if (!ch.cache_dir.empty() && ch.cache_dir[0] != '/' && !f.directory().empty())
     ch.cache_dir = f.directory() + "/" + ch.cache_dir;
+  c.module_inputs.push_back({ch.cache_dir, "flow.cache"});
 
   // [drag]
   ch.voidage = f.string("drag.voidage", "beetstra");

@@ -279,6 +279,9 @@ void ClogMonitor::publish(Simulation& sim) const {
     sim.set_result("open_avalanche", open ? std::to_string(escaped_ - avalanche_start_) : "null");
     sim.set_result("open_avalanche_start", open ? std::to_string(resumed_at_) : "null");
   }
+  std::ostringstream ratio;  // the neck over the inserted species' largest diameter
+  ratio << cfg_.get<ChannelConfig>().neck_width / (2 * cfg_.species[cfg_.init_species].radius_max);
+  sim.set_result("D_over_d", ratio.str());
   sim.set_result("clogged", clogged_ ? "true" : "false");
   sim.set_result("escapees", std::to_string(escaped_));
   sim.set_result("clog_time", clogged_ ? std::to_string(last_change_) : "null");

@@ -11,7 +11,8 @@ namespace cassini {
 
 ModuleKind StokesDrag::kind() {
   auto make = [](Simulation& sim) { return std::make_unique<StokesDrag>(sim.cfg, sim.find<ChannelWalls>()->geometry()); };
-  return {"drag", {"channel"}, nullptr, make};
+  auto prepare = [](const Config& cfg, MPI_Comm comm) { FlowField solve_or_load(cfg, comm); };
+  return {"drag", {"channel"}, nullptr, make, prepare};
 }
 
 StokesDrag::StokesDrag(const Config& cfg, const ChannelGeometry& geo)
