@@ -105,6 +105,19 @@ struct StokesProblem::Impl {
     return cholmod[a].solve(rhs);
   }
   int cell(int i, int j, int k) const { return (i * g.ny + j) * g.nz + k; }
+  // f(unknown, the cell below the face, the cell above it) for every unknown face of component a.
+  template <class F> void for_unknown_faces(int a, F&& f) const {
+    const Component& c = comp[a];
+    for (int i = 0; i < c.n[0]; ++i)
+      for (int j = 0; j < c.n[1]; ++j)
+        for (int k = 0; k < c.n[2]; ++k) {
+          const int r = c.unknown[c.index(i, j, k)];
+          if (r < 0) continue;
+          int lo[3] = {i, j, k};
+          lo[a] -= 1;
+          f(r, cell(lo[0], lo[1], lo[2]), cell(i, j, k));
+        }
+  }
 };
 
 StokesProblem::~StokesProblem() = default;
@@ -211,20 +224,12 @@ void StokesProblem::set_brinkman(const std::vector<double>& per_cell) {
   Impl& m = *m_;
   m.preconditioned = !per_cell.empty();
   for (int a = 0; a < 3; ++a) {
-    const Component& c = m.comp[a];
     if (!per_cell.empty()) {
       // A face's coefficient is the mean of the two cells it separates (both fluid).
       m.A[a] = m.laplacian[a];
-      for (int i = 0; i < c.n[0]; ++i)
-        for (int j = 0; j < c.n[1]; ++j)
-          for (int k = 0; k < c.n[2]; ++k) {
-            const int r = c.unknown[c.index(i, j, k)];
-            if (r < 0) continue;
-            int lo[3] = {i, j, k};
-            lo[a] -= 1;
-            const double coefficient = 0.5 * (per_cell[m.cell(lo[0], lo[1], lo[2])] + per_cell[m.cell(i, j, k)]);
-            m.A[a].coeffRef(r, r) += coefficient;
-          }
+      m.for_unknown_faces(a, [&](int r, int below, int above) {
+        m.A[a].coeffRef(r, r) += 0.5 * (per_cell[below] + per_cell[above]);
+      });
     }
     bool ok;
     if (m.repeatable) { m.simplicial[a].factorize(m.A[a]); ok = m.simplicial[a].info() == Eigen::Success; }
@@ -255,18 +260,11 @@ StokesSolution StokesProblem::solve(double inflow_scale, const std::vector<doubl
   // Right-hand sides: the inflow's part, and the body force (the mean of the two cells).
   Vec b[3];
   for (int a = 0; a < 3; ++a) {
-    const Component& c = m.comp[a];
     b[a] = inflow_scale == 1 ? m.inflow_rhs[a] : Vec(inflow_scale * m.inflow_rhs[a]);
     if (!force) continue;
-    for (int i = 0; i < c.n[0]; ++i)
-      for (int j = 0; j < c.n[1]; ++j)
-        for (int k = 0; k < c.n[2]; ++k) {
-          const int r = c.unknown[c.index(i, j, k)];
-          if (r < 0) continue;
-          int lo[3] = {i, j, k};
-          lo[a] -= 1;
-          b[a][r] += 0.5 * ((*force)[3 * m.cell(lo[0], lo[1], lo[2]) + a] + (*force)[3 * m.cell(i, j, k) + a]);
-        }
+    m.for_unknown_faces(a, [&](int r, int below, int above) {
+      b[a][r] += 0.5 * ((*force)[3 * below + a] + (*force)[3 * above + a]);
+    });
   }
   auto velocity = [&](const Vec& p, Vec* U) {  // U = A^-1 (b + D^T p)
     for (int a = 0; a < 3; ++a) U[a] = m.solve_velocity(a, b[a] + m.Dm[a].transpose() * p);
