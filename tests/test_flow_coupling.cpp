@@ -9,6 +9,7 @@
 #include <Eigen/SparseCore>
 #include <gtest/gtest.h>
 
+#include "ChannelScene.hpp"
 #include "TestScene.hpp"
 #include "physics/channel/DuctFlow.hpp"
 #include "physics/channel/FlowCoupling.hpp"
@@ -230,4 +231,25 @@ TEST(FlowCoupling, PressureDropThroughAFixedBedIsCarmanKozenysAndBalancesTheDrag
     EXPECT_GT(on_beads, 0.98 * (dp - c.bead_free_pressure_drop()) * A * per_length) << phi;
     EXPECT_LT(on_beads, 1.02 * dp * A * per_length) << phi;
   }
+}
+
+TEST(FlowCoupling, BadSettingsAreRefusedByName) {
+  auto error_of = [](const std::vector<std::string>& overrides) -> std::string {
+    try {
+      auto sim = make_sim(channel_case(R"(["channel", "drag"])"), overrides);
+      sim->setup();
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string unknown = error_of({"flow.coupling=\"both\""});
+  EXPECT_NE(unknown.find("flow.coupling"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("two-way"), std::string::npos) << unknown;
+  const std::string drive = error_of({"flow.drive=\"pressure\""});  // one-way: the flow cannot answer
+  EXPECT_NE(drive.find("flow.drive"), std::string::npos) << drive;
+  EXPECT_NE(drive.find("two-way"), std::string::npos) << drive;
+  const std::string grid = error_of({"flow.coupling=\"two-way\"", "flow.coupling_resolution=0"});
+  EXPECT_NE(grid.find("flow.coupling_resolution"), std::string::npos) << grid;
+  EXPECT_EQ(error_of({"flow.coupling=\"two-way\"", "flow.drive=\"pressure\""}), "");
 }
