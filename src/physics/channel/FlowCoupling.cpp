@@ -1,7 +1,6 @@
 #include "physics/channel/FlowCoupling.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <numbers>
 
@@ -115,7 +114,6 @@ bool FlowCoupling::update(const ParticleStore& p, const std::vector<double>& bet
 }
 
 void FlowCoupling::solve(double sign, bool warm_start) {
-  const auto t0 = std::chrono::steady_clock::now();
   problem_->set_brinkman(B_);
   // The correction d solves -eta lap d + B d + grad p = S - s G with no flow through the ends.
   // Rate: s = sign, one solve. Pressure: d is linear in s, d = s d_G + d_S from the right-hand
@@ -133,7 +131,6 @@ void FlowCoupling::solve(double sign, bool warm_start) {
   for (std::size_t k = 0; k < G_.size(); ++k) rhs_[k] = pressure_drive_ ? S_[k] : S_[k] - sign * G_[k];
   dS = problem_->solve(0.0, &rhs_, kSolveTolerance, 5000, warm ? &pressure_S_ : nullptr);
   pressure_S_ = dS.p;
-  iterations_ += dG.iterations + dS.iterations;
   if (pressure_drive_) {
     drive_ = (sign * dp0_ - dS.pressure_drop) / (dp0_ + dG.pressure_drop);
     pressure_drop_ = drive_ * (dp0_ + dG.pressure_drop) + dS.pressure_drop;
@@ -164,7 +161,6 @@ void FlowCoupling::solve(double sign, bool warm_start) {
   solved_G_ = G_;
   solved_sign_ = sign;
   ++solves_;
-  seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace cassini

@@ -10,8 +10,8 @@
 // VolumeFraction) and linear between the two layers of coupling cells around the bead's centre
 // across the height. beta_i = f(phi) K 6 pi eta a / (1 - phi):
 // the relative velocity between fluid and bead is (U - v) / (1 - phi), and f is van der Hoef's
-// and Beetstra's drag without the mean pressure gradient's share; with the 1 / (1 - phi) the
-// pressure drop through a fixed bed is Carman-Kozeny's within 3-6 % at phi = 0.4-0.5
+// and Beetstra's drag without the mean pressure gradient's share; with the 1 / (1 - phi) a fixed
+// bed's pressure drop is Carman-Kozeny's but for Beetstra's own 3-6 % above it at phi = 0.4-0.5
 // (tests/test_flow_coupling.cpp).
 //
 // Numerics. The one-way field U0 is kept as it is (fine grid near the neck, series beyond) and
@@ -57,8 +57,6 @@ class FlowCoupling {
   double pressure_drop() const { return pressure_drop_; }    // Pa, over the channel's length
   double bead_free_pressure_drop() const { return dp0_; }    // Pa, at Q0
   long solves() const { return solves_; }
-  double solve_seconds() const { return seconds_; }
-  long iterations() const { return iterations_; }
 
  private:
   // A forced solve (set-up, snapshot, restart) starts cold, so that a restarted run repeats it bit
@@ -66,17 +64,16 @@ class FlowCoupling {
   void solve(double sign, bool warm_start);
   bool pressure_drive_;
   double tolerance_, q0_ = 0, dp0_ = 0;
-  double drive_ = 1, pressure_drop_ = 0, solved_sign_ = 0, seconds_ = 0;
+  double drive_ = 1, pressure_drop_ = 0, solved_sign_ = 0;
   long solves_ = 0;
   StokesGrid grid_;
   std::unique_ptr<StokesProblem> problem_;
   StokesSolution clean_;                   // the coarse solve without beads, at Q0
   std::vector<double> clean_at_cell_;      // its velocity at the cell centres (3 per cell)
   std::vector<double> units_;              // fixed-point quanta of the deposit's channels
-  std::vector<double> values_, field_;     // per bead: beta, beta v; the deposited node field
+  std::vector<double> values_, field_;     // per bead and layer: beta, beta v, beta U0; the node field
   std::vector<double> B_, S_, G_, solved_B_, solved_S_, solved_G_, rhs_;  // per cell (S, G: 3 per cell)
   std::vector<double> pressure_G_, pressure_S_;  // the last solves' pressures: the next ones start there
-  long iterations_ = 0;
   NodeField correction_;
 };
 
