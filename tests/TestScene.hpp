@@ -79,13 +79,27 @@ inline std::unique_ptr<Simulation> make_sim(const std::string& text, const std::
   return std::make_unique<Simulation>(config_from(text, overrides), comm);
 }
 
+// Particle i's vectors in a wall module's column (WallHistory: e.g. plane_wall_xi,
+// plane_wall_roll), one per wall point; none where the scene does not declare it.
+inline std::vector<Vec3> wall_vectors(const ParticleStore& p, const std::string& column, std::size_t i = 0) {
+  const std::size_t c = p.find_column(column);
+  std::vector<Vec3> out;
+  if (c == ParticleStore::kNoColumn) return out;
+  for (int k = 0; k < p.module_columns[c].width; k += 3) out.emplace_back(p.column(c, i) + k);
+  return out;
+}
+
 // Every owned particle's state (x, v, omega; with `full` also f, torque, wall springs), keyed
 // by id, gathered on rank 0 of the simulation's communicator (empty on other ranks).
 using StateById = std::map<std::int64_t, std::vector<double>>;
 inline StateById gather_state(const Simulation& sim, bool full = false) {
   const auto& p = sim.particles;
-  const int walls = full && p.rotation ? p.walls : 0;
-  const int width = 1 + 9 + (full ? 6 + 3 * walls : 0);
+  // The wall modules' tangential springs (WallHistory's <module>_xi columns).
+  std::vector<std::size_t> springs;
+  for (std::size_t c = 0; c < p.module_columns.size() && full; ++c)
+    if (p.module_columns[c].name.ends_with("_xi")) springs.push_back(c);
+  int width = 1 + 9 + (full ? 6 : 0);
+  for (const std::size_t c : springs) width += p.module_columns[c].width;
   std::vector<double> mine;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     mine.push_back(double(p.id[i]));
@@ -93,7 +107,7 @@ inline StateById gather_state(const Simulation& sim, bool full = false) {
     for (const Vec3* q : {&p.x[i], &p.v[i], &w}) mine.insert(mine.end(), q->data(), q->data() + 3);
     if (!full) continue;
     for (const Vec3* q : {&p.f[i], &t}) mine.insert(mine.end(), q->data(), q->data() + 3);
-    for (int k = 0; k < walls; ++k) mine.insert(mine.end(), p.wall_xi[i * walls + k].data(), p.wall_xi[i * walls + k].data() + 3);
+    for (const std::size_t c : springs) mine.insert(mine.end(), p.column(c, i), p.column(c, i) + p.module_columns[c].width);
   }
   int n = static_cast<int>(mine.size()), size = 0, rank = 0;
   MPI_Comm_size(sim.domain.comm, &size);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
+#include "physics/contact/ContactSettings.hpp"
 
 using namespace cassini;
 using namespace cassini::test;
@@ -117,6 +118,6 @@ TEST(CaseFile, BrokenTomlNamesFileAndLine) {
 TEST(CaseFile, SetOverridesAnyKey) {
   const Config c = config_from(kGood, {"time.end=2.5", "species.0.e=0.25", "particles.velocity_sigma=3"});
   EXPECT_EQ(c.t_end, 2.5);
-  EXPECT_EQ(c.species[0].e, 0.25);
+  EXPECT_EQ(c.get<ContactSettings>().species[0].e, 0.25);
   EXPECT_EQ(c.velocity_sigma, 3.0);
 }

@@ -285,9 +285,10 @@ end = 1.0
     const auto& p = sim->particles;
     if (load < 1) {
       EXPECT_LT(std::abs(p.v[0][0]), 1e-9) << "held";
-      for (int wall = 0; wall < p.walls; ++wall) {
-        const double xi = p.wall_xi[wall].norm();
-        if (xi == 0) continue;  // the four periodic sides hold no wall
+      const std::vector<Vec3> springs = wall_vectors(p, "plane_wall_xi");
+      ASSERT_EQ(springs.size(), 2u);
+      for (int wall = 0; wall < 2; ++wall) {
+        const double xi = springs[wall].norm();
         EXPECT_NEAR(xi, F / (2 * kt), 1e-6 * F / (2 * kt)) << "spring of wall " << wall;
       }
       std::vector<WallForce> walls;
@@ -669,14 +670,12 @@ end = 1.0
     const auto& p = sim->particles;
     if (load < 1) {
       EXPECT_LT(std::abs(p.v[0][0]), 1e-9) << "held";
-      int springs = 0;
-      for (int wall = 0; wall < p.walls; ++wall) {
-        const double xi = p.wall_xi[wall].norm();
-        if (xi == 0) continue;  // the four periodic sides hold no wall
-        ++springs;
+      const std::vector<Vec3> springs = wall_vectors(p, "plane_wall_xi");
+      ASSERT_EQ(springs.size(), 2u);
+      for (int wall = 0; wall < 2; ++wall) {
+        const double xi = springs[wall].norm();
         EXPECT_NEAR(xi, F / (2 * kt), 1e-6 * F / (2 * kt)) << "spring of wall " << wall;
       }
-      EXPECT_EQ(springs, 2);
       // Stored energy: each wall's Hertz spring 8/15 E* sqrt(a) delta^5/2 and Mindlin's
       // 1/2 k_t (F / 2 k_t)^2.
       const double stored = 2 * (8.0 / 15.0 * Es * std::sqrt(a) * std::pow(delta, 2.5) +
@@ -1093,7 +1092,7 @@ TEST(ContactLaw, StickingTangentialContactIsSampledExactly) {
     for (int s = 0; s < 4 * n_c; ++s) {
       sim->step();
       double x = 0;
-      for (int wall = 0; wall < sim->particles.walls; ++wall) x += sim->particles.wall_xi[wall][0];
+      for (const Vec3& spring : wall_vectors(sim->particles, "plane_wall_xi")) x += spring[0];
       xi.push_back(x);
     }
     double worst = 0, scale = 0;
@@ -1137,7 +1136,7 @@ TEST(ContactLaw, TwistingSpringIsSampledExactly) {
     for (int s = 0; s < 3 * 2 * std::numbers::pi / (w0 * dt); ++s) {
       sim->step();
       double t = 0;
-      for (int wall = 0; wall < sim->particles.walls; ++wall) t += sim->particles.wall_roll[wall][2];
+      for (const Vec3& spring : wall_vectors(sim->particles, "plane_wall_roll")) t += spring[2];
       theta.push_back(t);
     }
     double worst = 0, scale = 0;
@@ -1402,11 +1401,11 @@ TEST(ContactLaw, AdhesionKeysAreChecked) {
   // Unlike surfaces mix as sqrt(gamma_a gamma_b); a [[pair]] table overrides.
   const std::string two = std::string(kPair) + rock;
   const Config mixed = config_from(two, {"species.0.surface_energy=4.0", "species.1.surface_energy=1.0"});
-  EXPECT_DOUBLE_EQ(mixed.pair(0, 1).value("surface_energy"), 2.0);
-  EXPECT_DOUBLE_EQ(mixed.pair(1, 1).value("surface_energy"), 1.0);
+  EXPECT_DOUBLE_EQ(mixed.get<ContactSettings>().pair(0, 1).value("surface_energy"), 2.0);
+  EXPECT_DOUBLE_EQ(mixed.get<ContactSettings>().pair(1, 1).value("surface_energy"), 1.0);
   const Config own = config_from(two + "[[pair]]\nspecies = [\"species0\", \"rock\"]\nsurface_energy = 0.5\n",
                                  {"species.0.surface_energy=4.0"});
-  EXPECT_DOUBLE_EQ(own.pair(1, 0).value("surface_energy"), 0.5);
+  EXPECT_DOUBLE_EQ(own.get<ContactSettings>().pair(1, 0).value("surface_energy"), 0.5);
   expect_refused(two + "[[pair]]\nspecies = [\"species0\", \"rock\"]\nsurface_energy = -0.5\n", {},
                  "pair[0].surface_energy");
 }

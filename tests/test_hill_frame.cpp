@@ -284,7 +284,7 @@ TEST(HillFrame, ExactMinusLinearIsTheSecondOrderTide) {
 TEST(Moonlet, GravityIsFiniteInsideAndExactOutside) {
   Moonlet m(config_from(kRing, {"modules=[\"contact\", \"hill\", \"moonlet\"]", "moonlet.mass=1.27e10",
                                 "moonlet.radius=150.0"}),
-            1.0, 0);
+            1.0);
   const double gm = kGravitationalConstant * 1.27e10;
   EXPECT_NEAR(m.gravity(Vec3(300, 0, 0))[0], -gm / (300.0 * 300.0), 1e-15);
   EXPECT_EQ(m.gravity(Vec3(0, 0, 0)).norm(), 0.0);

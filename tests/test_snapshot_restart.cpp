@@ -536,7 +536,7 @@ TEST(ModuleColumns, TravelWithTheirParticlesThroughMigrationGhostsAndRestart) {
   };
   const std::string dir = scratch();
   auto a = make_sim(kScene);
-  const std::size_t c = a->particles.declare("tag", 2, true);
+  const std::size_t c = a->particles.declare("tag", 2, ParticleStore::Ghosts::carry);
   a->setup();
   std::set<std::int64_t> first;
   for (std::size_t i = 0; i < a->particles.nlocal; ++i) first.insert(a->particles.id[i]);
@@ -556,9 +556,99 @@ TEST(ModuleColumns, TravelWithTheirParticlesThroughMigrationGhostsAndRestart) {
 
   const std::string file = write_snapshot(*a, dir, "# case text");  // rebuilds: ghosts get step 800's values
   auto b = make_sim(kScene);
-  const std::size_t cb = b->particles.declare("tag", 2, true);
+  const std::size_t cb = b->particles.declare("tag", 2, ParticleStore::Ghosts::carry);
   read_snapshot(*b, file);
   b->setup();
   EXPECT_EQ(wrong(*b, cb, 800), 0) << "after the restart";
-  EXPECT_THROW(b->particles.declare("late", 1, false), std::logic_error);  // particles exist already
+  EXPECT_THROW(b->particles.declare("late", 1, ParticleStore::Ghosts::zero), std::logic_error);  // particles exist already
+}
+
+// The wall modules keep their springs in their own columns (WallHistory: plane_wall_xi,
+// moonlet_xi, ...). Snapshots written before that kept every wall module's springs side by side
+// in one column, wall_xi, in the order the modules were made. Such a file, made here from a new
+// one by joining the modules' columns, restarts into the same state as the file it came from.
+TEST(Snapshot, OlderSharedWallSpringColumnsRestartIntoEachWallModule) {
+  // Two wall modules with friction: the floor and ceiling (plane walls) and a sphere (the
+  // moonlet's surface) half sunk in the floor at the middle of the box, which the grains hit.
+  const std::vector<std::string> over = {"modules=[\"contact\", \"gravity\", \"moonlet\"]", "moonlet.mass=1.0",
+                                         "moonlet.radius=0.003", "domain.lo=[-0.008, -0.004, 0.0]",
+                                         "domain.hi=[0.008, 0.004, 0.016]", "particles.volume_fraction=0.2"};
+  std::string scene = kScene;  // random placement: it keeps clear of the sphere
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"init = \"lattice\"", "init = \"random\""},
+                                 {"jitter = 0.5\n", ""}})
+    scene.replace(scene.find(from), from.size(), to);
+  const std::string dir = scratch();
+  auto a = make_sim(scene, over);
+  a->setup();
+  for (int s = 0; s < 2000; ++s) a->step();
+  const std::string file = write_snapshot(*a, dir, "# case text");
+  std::vector<std::string> shares;  // the wall columns in the order they were declared
+  for (const auto& c : a->particles.module_columns)
+    if (c.former.name == "wall_xi") shares.push_back(c.name);
+  ASSERT_EQ(shares.size(), 2u);
+  long loaded[2] = {0, 0}, all[2] = {0, 0};  // particles with a spring in each module
+  for (int m = 0; m < 2; ++m)
+    for (const Vec3& spring : [&] {
+           std::vector<Vec3> v;
+           for (std::size_t i = 0; i < a->particles.nlocal; ++i)
+             for (const Vec3& s : wall_vectors(a->particles, shares[m], i)) v.push_back(s);
+           return v;
+         }())
+      loaded[m] += spring.norm() > 0;
+  MPI_Allreduce(loaded, all, 2, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(all[0], 0) << shares[0] << ": no spring to carry";
+  EXPECT_GT(all[1], 0) << shares[1] << ": no spring to carry";
+
+  int rank;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const std::string older = dir + "/older.h5md";
+  if (rank == 0) {  // the older layout: one wall_xi, the modules' columns gone
+    fs::copy_file(file, older);
+    hid_t f = H5Fopen(older.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    std::vector<std::vector<double>> parts;
+    std::vector<hsize_t> widths;
+    hsize_t n = 0, total = 0;
+    for (const std::string& name : shares) {
+      const std::string path = "particles/grains/" + name + "/value";
+      hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
+      hid_t sp = H5Dget_space(d);
+      hsize_t dims[3];
+      H5Sget_simple_extent_dims(sp, dims, nullptr);
+      n = dims[1];
+      widths.push_back(dims[2]);
+      total += dims[2];
+      parts.emplace_back(n * dims[2]);
+      H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, parts.back().data());
+      H5Sclose(sp);
+      H5Dclose(d);
+      H5Ldelete(f, ("particles/grains/" + name).c_str(), H5P_DEFAULT);
+    }
+    std::vector<double> joined;
+    for (hsize_t k = 0; k < n; ++k)
+      for (std::size_t m = 0; m < parts.size(); ++m)
+        joined.insert(joined.end(), &parts[m][k * widths[m]], &parts[m][(k + 1) * widths[m]]);
+    hid_t g = H5Gcreate2(f, "particles/grains/wall_xi", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const hsize_t dims[3] = {1, n, total};
+    hid_t sp = H5Screate_simple(3, dims, nullptr);
+    hid_t d = H5Dcreate2(g, "value", H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, joined.data());
+    H5Dclose(d);
+    H5Sclose(sp);
+    H5Gclose(g);
+    H5Fclose(f);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+
+  auto from_new = make_sim(scene, over), from_older = make_sim(scene, over);
+  read_snapshot(*from_new, file);
+  read_snapshot(*from_older, older);
+  from_new->setup();
+  from_older->setup();
+  for (int s = 0; s < 200; ++s) {
+    from_new->step();
+    from_older->step();
+  }
+  const StateById expected = gather_state(*from_new, true), got = gather_state(*from_older, true);
+  if (rank == 0) EXPECT_EQ(differing(expected, got), 0);
 }

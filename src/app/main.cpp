@@ -77,8 +77,13 @@ int main(int argc, char** argv) {
     if (!restart.empty()) check_restart_case(restart, cf);  // before anything is created
     // A snapshot made before contact.scheme existed ran Verlet, then the only scheme: a
     // restart continues the system it was, whatever today's default.
+    // The case is read again with that key, so the run and its resolved case.toml say "verlet".
     const bool legacy_scheme = !restart.empty() && snapshot_parameter(restart, "contact_scheme").empty();
-    if (legacy_scheme) cfg.exact_contacts = false;
+    if (legacy_scheme) {
+      overrides.push_back("contact.scheme=\"verlet\"");
+      cf = CaseFile::load(file, overrides);
+      cfg = read_config(cf);
+    }
     if (out_dir.empty()) out_dir = "runs/" + fs::path(file).parent_path().filename().string();
     std::vector<RunInput> inputs = {{file, "the case file"}, {restart, "--restart"}, {cfg.init_file, "particles.file"}};
     for (const auto& [path, key] : cfg.module_inputs) inputs.push_back({path, key});

@@ -6,11 +6,6 @@
 
 namespace cassini {
 
-bool Config::friction() const {
-  return std::any_of(species.begin(), species.end(), [](const Species& s) { return s.mu_s > 0 || s.wall_mu_s > 0; }) ||
-         std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.mu_s > 0; });
-}
-
 double Config::max_radius() const {
   double r = 0;
   for (const auto& s : species) r = std::max(r, s.radius_max);
@@ -21,18 +16,6 @@ double Config::min_radius() const {
   double r = species.empty() ? 0.0 : species[0].radius_min;
   for (const auto& s : species) r = std::min(r, s.radius_min);
   return r;
-}
-
-bool Config::velocity_dependent_restitution() const {
-  return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.v_c > 0; });
-}
-
-bool Config::hertz() const {
-  return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.e_star > 0; });
-}
-
-bool Config::rolling() const {
-  return std::any_of(pairs.begin(), pairs.end(), [](const PairParameters& q) { return q.mu_r > 0 || q.mu_o > 0; });
 }
 
 const std::any& Config::find_settings(const std::type_index& type) const {

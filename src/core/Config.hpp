@@ -22,63 +22,13 @@ namespace cassini {
 // growing shear offset and moves faster by shear_rate * Ly (spec section 2).
 enum class Boundary { Periodic, Wall, Open, LeesEdwards };
 
-// A contact parameter that a part of the contact law declares in its own file (listed by
-// LinearSpringDashpot::parameters()): the case reader takes it from every [[species]] table
-// (`fallback` where a table does not give it), refuses values below `min`, mixes an unlike
-// pair's value from its species' values with `mix`, and lets a [[pair]] table override it. The
-// values reach the law by key (Species::declared, PairParameters::declared).
-struct ContactParameter {
-  std::string key;
-  std::string expected;  // what a valid value is, for the error message
-  double fallback = 0;
-  double min = 0;
-  double (*mix)(double, double) = nullptr;
-};
-
+// A species' geometry (its contact law: ContactSettings, physics/contact).
 struct Species {
   std::string name;
-  std::map<std::string, double> declared;  // the law's declared parameters (ContactParameter), by key
   double density = 0;
   double radius_min = 0, radius_max = 0;  // equal for monodisperse; distributed by `sizes` otherwise
   SizeDistribution sizes;
-  double t_c = 0;                         // contact duration
-  double e = 1;                           // normal restitution (restitution = "constant")
-  // restitution = "bridges": each impact's e from its normal speed u, the law of frosty ice
-  // (Bridges et al. 1984): e(u) = min(1, (u / v_c)^-0.234). 0: constant e.
-  double v_c = 0;
-  // model = "hertz" (Hertz-Mindlin, physics/contact/HertzMindlin.hpp): Young's modulus (Pa, > 0 marks
-  // the model) and Poisson ratio; t_c is then the Hertz duration of the fastest expected impact
-  // (impact_speed) between two of the smallest particles, which sets the time step.
-  double youngs_modulus = 0, poisson_ratio = 0, impact_speed = 0;
-  double mu_s = 0, mu_d = 0;              // Coulomb static and dynamic friction
-  double wall_mu_s = 0, wall_mu_d = 0;    // against walls and the moonlet (default: mu_s, mu_d)
-  // Rolling and twisting resistance (elastic-plastic spring-dashpot, LinearSpringDashpot::
-  // rolling): limit torques mu_r R* f_n and mu_o R* f_n, damping ratio eta_r; needs mu_s > 0.
-  double mu_r = 0, mu_o = 0, eta_r = 0.3;
-  double kt_ratio = 2.0 / 7.0;            // k_t = kt_ratio k
-  double gammat_ratio = 2.0 / 7.0;        // gamma_t = gammat_ratio gamma
 };
-
-// Contact parameters of one unordered pair of species. Without a [[pair]] table for it, an
-// unlike pair mixes its species' values: arithmetic means of t_c, e, kt_ratio and
-// gammat_ratio, the smaller mu_s and mu_d (the slipperier surface decides). A like pair is
-// its species' own values.
-struct PairParameters {
-  double t_c = 0, e = 1, mu_s = 0, mu_d = 0, kt_ratio = 2.0 / 7.0, gammat_ratio = 2.0 / 7.0;
-  double v_c = 0;  // > 0: Bridges restitution (e set per impact; see Species::v_c)
-  double mu_r = 0, mu_o = 0, eta_r = 0.3;  // rolling and twisting resistance (see Species::mu_r)
-  double e_star = 0, g_star = 0;  // > 0: Hertz-Mindlin effective moduli (see Species::youngs_modulus)
-  std::map<std::string, double> declared;  // the law's declared parameters (ContactParameter), by key
-  double value(const std::string& key) const {
-    const auto it = declared.find(key);
-    if (it == declared.end()) throw std::logic_error("contact parameter '" + key + "' was not declared");
-    return it->second;
-  }
-};
-// Bridges et al. (1984): e = (u / v_c)^-kBridgesExponent for impacts faster than v_c.
-inline constexpr double kBridgesExponent = 0.234;
-// Bridges' v_c for frosty ice at 155 K, 0.0077 cm/s (the default of restitution = "bridges").
-inline constexpr double kBridgesVc = 7.7e-5;
 
 inline constexpr double kGravitationalConstant = 6.674e-11;
 
@@ -102,6 +52,10 @@ struct Config {
   double pair_reach = 0;      // pairs interact across gaps up to this (lubrication), beyond contact
   double halo_reach = 0;      // centre distance of pairs the neighbour list does not cover (self-gravity)
   double obstacle_radius = 0; // a fixed sphere at the origin (the moonlet) initial particles keep clear of
+  bool rotation = false;      // particles turn (some contact has friction): spin, torque (the contact law's reader)
+  // Settings a case may leave to a default that has changed, recorded with their resolved values
+  // as attributes of a snapshot's parameters/ group (e.g. contact_scheme).
+  std::vector<std::pair<std::string, std::string>> recorded_settings;
 
   // Each module's own settings, read from its case-file table by its ModuleKind::read and kept
   // here by type: the core carries them without knowing them (cfg.get<ChannelConfig>()).
@@ -136,9 +90,6 @@ struct Config {
   double init_layer = 0;      // random, 3D: centres within +-layer/2 of the box's mid-plane (0: the whole box)
 
   std::vector<std::string> modules;
-  bool clip_normal = false;
-  bool exact_contacts = true;  // contact.scheme: "exact" (true) or "verlet"
-  bool damping_limit = true;   // contact.damping_limit: crowded particles' dashpots limited (DampingLimit.hpp)
   double skin = 0;                // Verlet skin; default 0.1 x largest diameter
   double max_rebuild_every = 0;   // 0: rebuild only on displacement
 
@@ -163,14 +114,6 @@ struct Config {
 
   std::uint64_t seed = 1;
 
-  // Contact parameters per species pair, [a * n + b] (symmetric); filled by read_config.
-  std::vector<PairParameters> pairs;
-  const PairParameters& pair(int a, int b) const { return pairs[a * species.size() + b]; }
-
-  bool friction() const;  // any species with mu_s > 0: rotation and tangential history needed
-  bool velocity_dependent_restitution() const;  // some pair's e is set per impact (Bridges)
-  bool hertz() const;                           // some pair follows Hertz-Mindlin
-  bool rolling() const;                         // some pair resists rolling or twisting
   double max_radius() const;
   // Largest centre distance at which two particles touch (or lubricate), plus the skin: the
   // neighbour list's range, and the halo's unless halo_range() is wider.

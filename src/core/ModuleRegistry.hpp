@@ -25,8 +25,8 @@ struct ModuleKind {
   // after the domain, species and module list are read, in table order. May be empty.
   std::function<void(CaseFile&, Config&)> read;
   // Makes the module for a run, once every module before it in the table is made (so it may
-  // find them: Simulation::find). Claims per-particle wall-spring slots with
-  // Simulation::claim_wall_slots.
+  // find them: Simulation::find) and declares its per-particle columns (ParticleStore::declare;
+  // a wall module's springs: WallHistory).
   std::function<std::unique_ptr<Module>(Simulation&)> make;
   // Work every run of an ensemble shares, done once by all ranks together before the runs (the
   // drag's flow solve, which the runs then read from its cache). May be empty.

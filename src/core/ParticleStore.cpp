@@ -110,18 +110,19 @@ void ParticleStore::permute_local(const std::vector<std::size_t>& order) {
   nlocal = n;
 }
 
-std::size_t ParticleStore::declare(const std::string& name, int width, bool ghosts) {
+std::size_t ParticleStore::declare(const std::string& name, int width, Ghosts ghosts, const std::string& unit,
+                                   const FormerColumn& former) {
   for (const auto& c : module_columns)
     if (c.name == name) throw std::logic_error("particle column '" + name + "' declared twice");
   if (size() != 0) throw std::logic_error("particle column '" + name + "' declared after particles exist");
-  module_columns.push_back({name, width, ghosts, {}});
+  module_columns.push_back({name, width, ghosts, unit, former, {}});
   return module_columns.size() - 1;
 }
 
 int ParticleStore::ghost_column_width() const {
   int w = 0;
   for (const auto& c : module_columns)
-    if (c.ghosts) w += c.width;
+    if (c.carried()) w += c.width;
   return w;
 }
 

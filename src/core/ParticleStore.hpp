@@ -14,11 +14,16 @@
 
 namespace cassini {
 
+// Where a snapshot from before a module's column existed kept its values: the column's width
+// in doubles from `offset` in each row of particles/grains/<name> (no name: such a snapshot
+// gives zeros).
+struct FormerColumn {
+  std::string name;
+  int offset = 0;
+};
+
 struct ParticleStore {
   bool rotation = false;  // fixed at start: true iff some species has friction
-  int walls = 0;          // number of wall planes (one tangential history slot each)
-  bool impacts = false;   // fixed at start: true iff some restitution is set per impact (Bridges)
-  bool rolling = false;   // fixed at start: true iff some pair resists rolling (needs rotation)
   bool copies = false;    // fixed at start: true under modified Lees-Edwards boundaries
 
   std::size_t nlocal = 0;
@@ -35,9 +40,6 @@ struct ParticleStore {
   std::vector<Vec3> torque;           // rotation only
   std::vector<double> inv_inertia;    // rotation only
   std::vector<Vec3> x_build;          // position at the last neighbour-list build
-  std::vector<Vec3> wall_xi;          // rotation only: tangential spring per (particle, wall)
-  std::vector<double> wall_impact;    // impacts only: impact normal speed per (particle, wall), 0: none
-  std::vector<Vec3> wall_roll;        // rolling only: rolling-resistance torque spring per (particle, wall)
   // Modified Lees-Edwards boundaries only: the copy of the box the particle lives in, 0 = LE1
   // (the main box, with the moonlet), 1 = LE2 (the moonlet-free feed). Particles of different
   // copies never touch; ghosts carry it.
@@ -45,17 +47,23 @@ struct ParticleStore {
 
   // Per-particle values a module declares for itself (declare(), when the module is made):
   // `width` doubles per particle in `data`. They migrate with their particle, go into
-  // snapshots as particles/grains/<name> and come back on a restart, and with `ghosts` the
-  // ghosts carry them too (refreshed every step). Zero for a new particle.
+  // snapshots as particles/grains/<name> and come back on a restart. Zero for a new particle.
+  // Ghost slots hold the owner's values (`carry`, refreshed every step), zeros (`zero`), or do
+  // not exist (`none`: values only an owned particle has, like its wall springs).
+  enum class Ghosts { carry, zero, none };
   struct ModuleColumn {
     std::string name;
     int width;
-    bool ghosts;
+    Ghosts ghosts;
+    std::string unit;  // in snapshots ("": none recorded)
+    FormerColumn former;
     std::vector<double> data;
+    bool carried() const { return ghosts == Ghosts::carry; }
   };
   std::vector<ModuleColumn> module_columns;
   // Returns the column's index in module_columns. Declared before any particle exists.
-  std::size_t declare(const std::string& name, int width, bool ghosts);
+  std::size_t declare(const std::string& name, int width, Ghosts ghosts, const std::string& unit = "",
+                      const FormerColumn& former = {});
   // The index of a declared column, or kNoColumn (for columns several modules share).
   static constexpr std::size_t kNoColumn = static_cast<std::size_t>(-1);
   std::size_t find_column(const std::string& name) const {
@@ -65,7 +73,7 @@ struct ParticleStore {
   }
   double* column(std::size_t c, std::size_t i) { return &module_columns[c].data[i * module_columns[c].width]; }
   const double* column(std::size_t c, std::size_t i) const { return &module_columns[c].data[i * module_columns[c].width]; }
-  int ghost_column_width() const;  // doubles per ghost of the columns with `ghosts`
+  int ghost_column_width() const;  // doubles per ghost of the carried columns
 
   std::size_t size() const { return id.size(); }
   std::size_t nghost() const { return size() - nlocal; }
@@ -110,13 +118,9 @@ struct ParticleStore {
       visit(p.omega, 1, true, true);
       visit(p.torque, 1, true, false);
       visit(p.inv_inertia, 1, false, false);
-      visit(p.wall_xi, p.walls, true, false);
     }
-    if (p.impacts) visit(p.wall_impact, p.walls, true, false);
-    if (p.rolling) visit(p.wall_roll, p.walls, true, false);
     if (p.copies) visit(p.le_copy, 1, true, true);
-    // Every slot, ghosts' too, whether or not ghosts carry the values (zero then).
-    for (auto& c : p.module_columns) visit(c.data, c.width, true, true);
+    for (auto& c : p.module_columns) visit(c.data, c.width, true, c.ghosts != Ghosts::none);
   }
 };
 

@@ -19,17 +19,15 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   skin = cfg.skin;
   range = cfg.pair_range();  // largest a_i + a_j (+ lubrication reach) + skin
   halo_range = cfg.halo_range();
-  particles.rotation = cfg.friction();
-  particles.impacts = cfg.velocity_dependent_restitution();
-  particles.rolling = cfg.rolling();
+  particles.rotation = cfg.rotation;
   particles.copies = cfg.modified_lees_edwards;
   if (particles.copies) {  // the boundaries' own state per particle (HaloExchange)
-    particles.declare(HaloExchange::kEnteredColumn, 1, false);
-    particles.declare(HaloExchange::kInflowColumn, 1, false);
+    particles.declare(HaloExchange::kEnteredColumn, 1, ParticleStore::Ghosts::zero);
+    particles.declare(HaloExchange::kInflowColumn, 1, ParticleStore::Ghosts::zero);
   }
   if (cfg.decomposition == "metis") domain.use_cells(range);
   // The modules, in registry order between the integrator and the guards. Made here, not in
-  // setup(): they size the per-particle wall springs (claim_wall_slots), which a restart reads.
+  // setup(): they declare their per-particle columns (wall springs), which a restart reads.
   const auto& ik = integrator_kinds();
   for (const auto& k : ik)
     if (k.name == cfg.integrator) modules.push_back(k.make(*this));
@@ -37,12 +35,6 @@ Simulation::Simulation(const Config& c, MPI_Comm comm)
   for (const auto& k : module_kinds())
     if (cfg.has_module(k.name)) modules.push_back(k.make(*this));
   modules.push_back(make_guards(*this));  // last: they see every module's energy
-}
-
-int Simulation::claim_wall_slots(int n) {
-  const int first = particles.walls;
-  particles.walls += n;
-  return first;
 }
 
 Simulation::~Simulation() = default;
@@ -77,30 +69,6 @@ void Simulation::setup() {
     compute_forces();
     stepping.initial_forces = false;
     check_initial_overlaps();
-    check_initial_speeds();
-  }
-}
-
-void Simulation::check_initial_speeds() {
-  // A Hertz contact is shorter the faster the impact (t_c ~ u^-1/5), and dt follows from the
-  // species' impact_speed, "the fastest expected". Particles that start far faster than that
-  // would collide under-resolved from the first step: refuse, naming the key.
-  std::vector<double> fastest(cfg.species.size(), 0.0), global(cfg.species.size(), 0.0);
-  for (std::size_t i = 0; i < particles.nlocal; ++i) {
-    double& f = fastest[particles.species[i]];
-    f = std::max(f, (particles.v[i] - imposed_flow(particles.x[i])).norm());
-  }
-  MPI_Allreduce(fastest.data(), global.data(), int(fastest.size()), MPI_DOUBLE, MPI_MAX, domain.comm);
-  for (std::size_t k = 0; k < cfg.species.size(); ++k) {
-    const Species& s = cfg.species[k];
-    const double approach = 2 * global[k];  // two such particles head-on
-    if (!(s.impact_speed > 0) || approach <= 10 * s.impact_speed || cfg.force_dt) continue;
-    std::ostringstream os;
-    os << cfg.source << ": key 'species[" << k << "].impact_speed': " << s.impact_speed
-       << " m/s, but the initial particles approach at up to " << approach << " m/s, where a contact lasts "
-       << s.t_c * std::pow(s.impact_speed / approach, 0.2) / dt << " steps instead of " << s.t_c / dt
-       << "; expected an impact speed of at least a tenth of that (or time.force = true)";
-    throw ConfigError(os.str());
   }
 }
 

@@ -139,9 +139,6 @@ class Simulation {
   RunRecord record;
 
   std::vector<std::unique_ptr<Module>> modules;  // integrator first, guards last (ModuleRegistry.hpp)
-  // A module with a tangential spring per particle and wall (plane walls, channel faces, the
-  // moonlet) claims n columns of ParticleStore::wall_xi when it is made; the first is returned.
-  int claim_wall_slots(int n);
 
   // Velocity of the imposed flow at x (the Lees-Edwards shear v_x = gamma_dot y; zero otherwise).
   Vec3 imposed_flow(const Vec3& x) const {
@@ -179,7 +176,6 @@ class Simulation {
   bool remove_stillborn();
   void check_guards();
   void check_initial_overlaps();
-  void check_initial_speeds();
   bool global_guard_pending();
   std::vector<Module*> stage_[6];
   std::string guard_message_;

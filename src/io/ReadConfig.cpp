@@ -98,7 +98,7 @@ Config read_config(CaseFile& f) {
     } else if (sizes != "uniform" && sizes != "list") {
       f.fail(p + "size_distribution", "\"uniform\", \"power_law\" (dN/da ~ a^-size_exponent) or \"list\" (radii, radius_weights)");
     }
-    read_species_law(f, p, s);
+    read_species_law(f, p, s, c);
     for (const auto& other : c.species)
       if (other.name == s.name) f.fail(p + "name", "a name not used by another species");
     c.species.push_back(s);

@@ -97,16 +97,15 @@ void element(hid_t parent, const std::string& name, hid_t type, hsize_t total, h
   h5::unit(g, "value", unit);
 }
 
-// The unit of each particle column (the modules' own columns have none recorded). position has
+// The unit of each particle column (a module's own columns: the one it declared). position has
 // none: MDAnalysis (2.x) knows no length unit "m" and refuses the file; the box edges and
 // parameters@units say metres.
-std::string unit_of(const std::string& column) {
+std::string unit_of(const GrainColumn& column) {
   static const std::map<std::string, std::string> units = {
-      {"radius", "m"},  {"mass", "kg"},       {"velocity", "m s-1"}, {"force", "N"},
-      {"body_force", "N"}, {"omega", "s-1"},  {"torque", "N m"},
-      {"wall_xi", "m"},       {"wall_impact", "m s-1"},   {"wall_roll", "m"}};
-  const auto it = units.find(column);
-  return it == units.end() ? "" : it->second;
+      {"radius", "m"},     {"mass", "kg"},     {"velocity", "m s-1"}, {"force", "N"},
+      {"body_force", "N"}, {"omega", "s-1"},   {"torque", "N m"}};
+  const auto it = units.find(column.name);
+  return it == units.end() ? column.unit : it->second;
 }
 
 // This rank's rows [offset, offset + rows) of a table of `total` rows spread over the ranks.
@@ -214,7 +213,7 @@ void write_grains(hid_t grains, const std::vector<GrainColumn>& columns, const s
     data = c.type == GrainColumn::Int64 ? static_cast<const void*>(i64.data())
            : c.type == GrainColumn::Int32 ? static_cast<const void*>(i32.data()) : static_cast<const void*>(real.data());
     element(grains, c.name, c.hdf5_type(), block.total, block.offset, block.rows, c.width, data, sim.step_count, sim.time, dxpl,
-            unit_of(c.name));
+            unit_of(c));
     if (first == 0 && injected_write_failure(file, sim.domain.rank))
       io_failure(file, "No space left on device (injected by CASSINI_FAIL_WRITE)");
     first += c.width;
@@ -358,8 +357,8 @@ void write_parameters(hid_t file, const Simulation& sim, const std::string& case
   }
   attr_string(params, "case", case_text);
   if (!run_id.empty()) attr_string(params, "run_id", run_id);
-  // The contact scheme in force (the case may leave it to the default, which has changed).
-  attr_string(params, "contact_scheme", sim.cfg.exact_contacts ? "exact" : "verlet");
+  // Settings in force that the case may leave to a default which has changed (contact_scheme).
+  for (const auto& [key, value] : sim.cfg.recorded_settings) attr_string(params, key, value);
   attr_string(params, "units", "SI: m, s, kg, m/s, N, 1/s");
   const double now[3] = {sim.time, dom.shear.offset, sim.dt};
   small_dataset(params, "time_offset_dt", H5T_NATIVE_DOUBLE, {3}, now, dxpl);
@@ -499,6 +498,16 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     std::vector<std::vector<double>> values;
     for (const auto& c : columns) {
       values.emplace_back(n * c.width, 0.0);
+      if (!in.has(kGrains + c.name) && !c.former.empty() && in.has(kGrains + c.former)) {
+        // An older snapshot kept these values as a share of a column several modules filled.
+        const hsize_t w = std::max<hsize_t>(1, in.extent(kGrains + c.former + "/value", 2));  // [1][N]: one
+        if (c.former_offset + c.width > static_cast<int>(w))
+          throw ConfigError(path + ": particles/grains/" + c.former + " is narrower than the case's wall modules need");
+        const std::vector<double> whole = in.grain(c.former, lo, n, w);
+        for (hsize_t k = 0; k < n; ++k)
+          std::copy_n(&whole[k * w + c.former_offset], c.width, &values.back()[k * c.width]);
+        continue;
+      }
       if (!in.has(kGrains + c.name)) {
         if (c.optional) continue;  // older snapshots: zeros (e.g. contacts take their present speed)
         throw ConfigError(path + ": the case needs particles/grains/" + c.name +

@@ -9,8 +9,12 @@
 //   h5md/                          version [1,1], author, creator
 //   particles/grains/{position, velocity, omega*, id, species, radius, mass}/{step,time,value}
 //   particles/trajectory           soft link to particles/grains (MDAnalysis looks for that name)
-//   particles/grains/{force, torque*, body_force, wall_xi*, wall_impact*, wall_roll*}/{step,time,value}   forces of the step;
+//   particles/grains/{force, torque*, body_force}/{step,time,value}   forces of the step;
 //                                  body_force: the non-contact part (gravity, drag, frame forces)
+//   particles/grains/<module column>/{step,time,value}   what modules declared per particle
+//                                  (ParticleStore::declare): e.g. the wall modules' springs
+//                                  plane_wall_xi, channel_wall_impact, moonlet_roll (WallHistory;
+//                                  older snapshots: wall_xi, wall_impact, wall_roll, shared)
 //   particles/grains/box           dimension, boundary; edges/{step,time,value[1][3][3]}
 //   particles/grains/lees_edwards/{offset,direction,normal}/{step,time,value}   (sheared runs)
 //   contacts/{owner, partner, <column>...}   contact history, one row per contact, a dataset per
@@ -20,7 +24,7 @@
 //   contacts/{pair_ids, position_i, branch, force}   pair forces, each pair once (contacts and
 //                                  lubrication), at the snapshot state: for stress (cassini-cg)
 //   contacts/{wall_particle, wall_point, wall_branch, wall_force}   particle-wall contacts
-//   parameters/                    case (resolved TOML text), run_id, units; wall_xi per particle
+//   parameters/                    case (resolved TOML text), run_id, units
 //   parameters/state/<name>        run state a restart restores (inlet ids, clog timer, outlet counts)
 //   results                        attributes: the run's results so far (as in summary.json)
 // (* on grains: only when the scene rotates)

@@ -29,17 +29,13 @@ namespace {
 using P = ParticleStore;
 using Body = std::vector<Vec3>;
 
-// A Vec3 member array with `per` entries per particle (wall springs: one per wall).
-GrainColumn vectors(const std::string& name, std::vector<Vec3> P::*member, int per, bool optional = false) {
-  return {name, GrainColumn::Real, 3 * per,
-          [member, per](const P& p, const Body&, std::size_t i, double* out) {
-            for (int k = 0; k < per; ++k)
-              for (int c = 0; c < 3; ++c) out[3 * k + c] = (p.*member)[i * per + k][c];
+// A Vec3 member array.
+GrainColumn vectors(const std::string& name, std::vector<Vec3> P::*member) {
+  return {name, GrainColumn::Real, 3,
+          [member](const P& p, const Body&, std::size_t i, double* out) {
+            for (int c = 0; c < 3; ++c) out[c] = (p.*member)[i][c];
           },
-          [member, per](P& p, std::size_t i, const double* in) {
-            for (int k = 0; k < per; ++k) (p.*member)[i * per + k] = Vec3(in[3 * k], in[3 * k + 1], in[3 * k + 2]);
-          },
-          optional};
+          [member](P& p, std::size_t i, const double* in) { (p.*member)[i] = Vec3(in[0], in[1], in[2]); }};
 }
 
 // Restored by ParticleStore::add, which also derives the inverse mass and inertia.
@@ -59,28 +55,15 @@ std::vector<GrainColumn> grain_columns(const ParticleStore& p) {
       identity("mass", GrainColumn::Real, 1, [](const P& q, std::size_t i, double* o) { o[0] = q.mass[i]; }),
       identity("position", GrainColumn::Real, 3, [vec](const P& q, std::size_t i, double* o) { vec(q.x[i], o); }),
       identity("velocity", GrainColumn::Real, 3, [vec](const P& q, std::size_t i, double* o) { vec(q.v[i], o); }),
-      vectors("force", &P::f, 1),
+      vectors("force", &P::f),
       // The non-contact forces (gravity, drag, frame forces), for cassini-cg's stress (3.34).
       {"body_force", GrainColumn::Real, 3, [vec](const P&, const Body& b, std::size_t i, double* o) { vec(b[i], o); },
        nullptr},
   };
   if (p.rotation) {
-    c.push_back(vectors("omega", &P::omega, 1));
-    c.push_back(vectors("torque", &P::torque, 1));
-    if (p.walls > 0) c.push_back(vectors("wall_xi", &P::wall_xi, p.walls));
+    c.push_back(vectors("omega", &P::omega));
+    c.push_back(vectors("torque", &P::torque));
   }
-  if (p.impacts && p.walls > 0) {
-    const int per = p.walls;
-    c.push_back({"wall_impact", GrainColumn::Real, per,
-                 [per](const P& q, const Body&, std::size_t i, double* o) {
-                   for (int k = 0; k < per; ++k) o[k] = q.wall_impact[i * per + k];
-                 },
-                 [per](P& q, std::size_t i, const double* in) {
-                   for (int k = 0; k < per; ++k) q.wall_impact[i * per + k] = in[k];
-                 },
-                 true});
-  }
-  if (p.rolling && p.walls > 0) c.push_back(vectors("wall_roll", &P::wall_roll, p.walls, true));
   // Modified Lees-Edwards boundaries: 0 = LE1 (the main box), 1 = LE2 (the moonlet-free feed).
   if (p.copies)
     c.push_back({"le_copy", GrainColumn::Int32, 1,
@@ -92,10 +75,12 @@ std::vector<GrainColumn> grain_columns(const ParticleStore& p) {
     for (const auto& taken : c)
       if (taken.name == p.module_columns[k].name)
         throw std::logic_error("particle column '" + taken.name + "' would replace the snapshot's own");
-    c.push_back({p.module_columns[k].name, GrainColumn::Real, w,
+    const ParticleStore::ModuleColumn& m = p.module_columns[k];
+    c.push_back({m.name, GrainColumn::Real, w,
                  [k](const P& q, const Body&, std::size_t i, double* o) { std::copy_n(q.column(k, i), q.module_columns[k].width, o); },
                  [k, w](P& q, std::size_t i, const double* in) { std::copy_n(in, w, q.column(k, i)); },
-                 true});  // a snapshot from before the column existed: zeros
+                 true,  // a snapshot from before the column existed: zeros, or its former share
+                 m.unit, m.former.name, m.former.offset});
   }
   return c;
 }

@@ -33,10 +33,15 @@ struct GrainColumn {
   // ParticleStore::add from the identity columns id, species, radius, mass, position, velocity).
   std::function<void(ParticleStore&, std::size_t i, const double* in)> unpack;
   bool optional = false;  // older snapshots may lack it: restored as zeros
+  std::string unit;       // "" : none recorded
+  // Where an older snapshot without this dataset kept these values: `width` doubles from
+  // `former_offset` in each row of particles/grains/<former> (FormerColumn).
+  std::string former;
+  int former_offset = 0;
   hid_t hdf5_type() const;
 };
 
-// The columns of this scene's particles (rotation, wall springs, copies only where they exist),
+// The columns of this scene's particles (rotation, copies, modules' columns only where they exist),
 // id first: rows are ordered by it.
 std::vector<GrainColumn> grain_columns(const ParticleStore& p);
 

@@ -318,7 +318,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
     if (p.rotation) b = std::copy_n(p.omega[i].data(), 3, b);
     if (p.copies) *b++ = im.copy;
     for (const auto& c : p.module_columns)
-      if (c.ghosts) b = std::copy_n(&c.data[i * c.width], c.width, b);
+      if (c.carried()) b = std::copy_n(&c.data[i * c.width], c.width, b);
   };
   auto unpack = [&](const double* b, std::size_t j) {
     p.id[j] = bits_id(b[0]);
@@ -333,7 +333,7 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
     if (p.copies) p.le_copy[j] = static_cast<std::uint8_t>(b[width - extra - 1]);
     const double* q = b + width - extra;
     for (auto& c : p.module_columns)
-      if (c.ghosts) {
+      if (c.carried()) {
         std::copy_n(q, c.width, &c.data[j * c.width]);
         q += c.width;
       }
@@ -386,7 +386,7 @@ void HaloExchange::pack_ghost(const ParticleStore& p, const Image& im, double* q
   if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
   double* e = q + 6 + (p.rotation ? 3 : 0);
   for (const auto& c : p.module_columns)
-    if (c.ghosts) e = std::copy_n(&c.data[i * c.width], c.width, e);
+    if (c.carried()) e = std::copy_n(&c.data[i * c.width], c.width, e);
 }
 
 void HaloExchange::unpack_ghost(ParticleStore& p, const double* b, std::size_t j) const {
@@ -395,7 +395,7 @@ void HaloExchange::unpack_ghost(ParticleStore& p, const double* b, std::size_t j
   if (p.rotation) p.omega[j] = Vec3(b[6], b[7], b[8]);
   const double* e = b + 6 + (p.rotation ? 3 : 0);
   for (auto& c : p.module_columns)
-    if (c.ghosts) {
+    if (c.carried()) {
       std::copy_n(e, c.width, &c.data[j * c.width]);
       e += c.width;
     }
@@ -428,7 +428,7 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
         if (p.rotation) p.omega[j] = p.omega[i];
         if (extra > 0)
           for (auto& c : p.module_columns)
-            if (c.ghosts) std::copy_n(&c.data[i * c.width], c.width, &c.data[j * c.width]);
+            if (c.carried()) std::copy_n(&c.data[i * c.width], c.width, &c.data[j * c.width]);
         ++j;
       }
       continue;

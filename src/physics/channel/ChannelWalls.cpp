@@ -13,21 +13,20 @@ namespace cassini {
 ModuleKind ChannelWalls::kind() {
   auto read = [](CaseFile& f, Config& c) {
     read_channel_config(f, c);
-    if (c.velocity_dependent_restitution())
+    if (c.get<ContactSettings>().velocity_dependent_restitution())
       f.fail("species", "restitution = \"constant\" with module \"channel\" (the Bridges law is for ice rings: "
                         "particle pairs, plane walls and the moonlet)");
   };
   auto make = [](Simulation& sim) {
-    auto walls = std::make_unique<ChannelWalls>(sim.cfg, sim.dt, 0);
-    walls->first_slot_ = sim.claim_wall_slots(walls->geometry().features());
+    auto walls = std::make_unique<ChannelWalls>(sim.cfg, sim.dt);
+    walls->history_ = WallHistory(sim.particles, "channel_wall", walls->geometry().features(), walls->law_);
     if (walls->law_.damping_limit()) walls->limit_ = DampingLimit::attach(sim.particles);
     return walls;
   };
   return {"channel", {}, read, make};
 }
 
-ChannelWalls::ChannelWalls(const Config& cfg, double dt, int first_slot)
-    : law_(cfg, dt), geometry_(cfg.get<ChannelConfig>()), first_slot_(first_slot) {
+ChannelWalls::ChannelWalls(const Config& cfg, double dt) : law_(cfg, dt), geometry_(cfg.get<ChannelConfig>()) {
   geometry_.index(cfg.max_radius(), cfg.lo[0], cfg.hi[0]);
   if (geometry_.features() > 64) throw std::runtime_error("channel: more than 64 wall faces and edges");
 }
@@ -42,9 +41,9 @@ void ChannelWalls::post_rebuild(Simulation& sim) {
     candidates_[i] = geometry_.near_features(p.x[i][0], p.x[i][1], p.radius[i] + sim.skin);
     // A spring of a feature out of reach is zero already (it was not touched at the last
     // step); clearing it here keeps that true without a per-step sweep over every feature.
-    if (fric || p.rolling)
+    if (fric || law_.rolling())
       for (int k = 0; k < nf; ++k)
-        if (!(candidates_[i] >> k & 1)) wall_springs(p, fric, i, first_slot_ + k).relax();
+        if (!(candidates_[i] >> k & 1)) history_.relax(p, i, k);
   }
 }
 
@@ -71,7 +70,7 @@ void ChannelWalls::force(Simulation& sim) {
       for (const auto& c : touching_)
         if (c.distance < a) touched |= std::uint64_t{1} << c.feature;
       for (std::uint64_t m = cand & ~touched; m; m &= m - 1)
-        wall_springs(p, fric, i, first_slot_ + std::countr_zero(m)).relax();
+        history_.relax(p, i, std::countr_zero(m));
     }
     Vec3 move = Vec3::Zero();
     for (const auto& c : touching_) {
@@ -83,7 +82,7 @@ void ChannelWalls::force(Simulation& sim) {
       }
       const Vec3 n(c.nx, c.ny, 0);
       const double delta = a - c.distance;
-      if (wall_contact(law_, p, i, n, delta, wall_springs(p, fric, i, first_slot_ + c.feature), move, 0, limit_, !sim.stepping.initial_forces))
+      if (wall_contact(law_, p, i, n, delta, history_, c.feature, move, 0, limit_, !sim.stepping.initial_forces))
         deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);
@@ -107,7 +106,7 @@ void ChannelWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& ou
   const ParticleStore& p = sim.particles;
   for_each_touching(p, [&](std::size_t i, const WallContact& c) {
     const Vec3 n(c.nx, c.ny, 0);
-    const Vec3 f = wall_contact_force(law_, p, i, n, p.radius[i] - c.distance, first_slot_ + c.feature);
+    const Vec3 f = wall_contact_force(law_, p, i, n, p.radius[i] - c.distance, history_, c.feature);
     out.push_back({p.id[i], p.x[i] - c.distance * n, c.distance * n, f});
   });
 }
@@ -122,7 +121,7 @@ double ChannelWalls::elastic_energy(const Simulation& sim) const {
   const ParticleStore& p = sim.particles;
   double e = 0;
   for_each_touching(p, [&](std::size_t i, const WallContact& c) {
-    e += wall_contact_energy(law_, p, i, Vec3(c.nx, c.ny, 0), p.radius[i] - c.distance, first_slot_ + c.feature);
+    e += wall_contact_energy(law_, p, i, Vec3(c.nx, c.ny, 0), p.radius[i] - c.distance, history_, c.feature);
   });
   return e;
 }

@@ -1,7 +1,8 @@
 #pragma once
 // Particle contacts with the channel's side walls (ChannelGeometry): the same LSD law and
 // Coulomb friction as particle-particle contacts, the wall taken as an infinite mass. Each
-// wall feature has its own tangential-history slot per particle, after the domain's planes.
+// (particle, face or edge) keeps its own springs, in this module's per-particle columns
+// channel_wall_* (WallHistory).
 #include <cstdint>
 #include <vector>
 
@@ -9,6 +10,7 @@
 #include "core/ModuleRegistry.hpp"
 #include "physics/channel/ChannelGeometry.hpp"
 #include "physics/contact/LinearSpringDashpot.hpp"
+#include "physics/contact/WallContact.hpp"
 
 namespace cassini {
 
@@ -17,7 +19,7 @@ class ChannelWalls : public Module {
   // Reads [channel], [flow], [drag], [inlet] and [clog] (ChannelConfig), which the drag, inlet
   // and clog modules share.
   static ModuleKind kind();
-  ChannelWalls(const Config& cfg, double dt, int first_slot);
+  ChannelWalls(const Config& cfg, double dt);
   std::string name() const override { return "channel walls (" + std::to_string(geometry_.features()) + " faces and edges)"; }
   unsigned stages() const override {
     return kForce | kRebuild | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u);
@@ -40,7 +42,7 @@ class ChannelWalls : public Module {
   DampingLimit limit_;
   PendingShifts shifts_;
   ChannelGeometry geometry_;
-  int first_slot_;
+  WallHistory history_;  // one point per face or edge
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;
   std::vector<WallContact> touching_;

@@ -21,7 +21,7 @@ ModuleKind Lubrication::kind() {
   };
   auto make = [](Simulation& sim) {
     auto lub = std::make_unique<Lubrication>(sim.cfg.get<LubricationSettings>(), sim.dt);
-    lub->load_ = sim.particles.declare("lubrication_load", 1, true);  // D_i; ghosts need it too
+    lub->load_ = sim.particles.declare("lubrication_load", 1, ParticleStore::Ghosts::carry);  // D_i; ghosts need it too
     return lub;
   };
   return {"lubrication", {}, read, make};

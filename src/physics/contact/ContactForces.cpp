@@ -1,8 +1,11 @@
 #include "physics/contact/ContactForces.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
 
+#include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
 
 namespace cassini {
@@ -487,8 +490,36 @@ void ContactForces::observables(Simulation& sim, std::vector<std::pair<std::stri
                          {"max_overlap_over_radius", worst}});
 }
 
+namespace {
+// A Hertz contact is shorter the faster the impact (t_c ~ u^-1/5), and dt follows from the
+// species' impact_speed, "the fastest expected". Particles that start far faster than that
+// would collide under-resolved from the first step: refuse, naming the key.
+void refuse_impacts_faster_than_expected(const Simulation& sim) {
+  const Config& cfg = sim.cfg;
+  const ParticleStore& p = sim.particles;
+  std::vector<double> fastest(cfg.species.size(), 0.0), global(cfg.species.size(), 0.0);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    double& f = fastest[p.species[i]];
+    f = std::max(f, (p.v[i] - sim.imposed_flow(p.x[i])).norm());
+  }
+  MPI_Allreduce(fastest.data(), global.data(), int(fastest.size()), MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  for (std::size_t k = 0; k < cfg.species.size(); ++k) {
+    const SpeciesLaw& s = cfg.get<ContactSettings>().species[k];
+    const double approach = 2 * global[k];  // two such particles head-on
+    if (!(s.impact_speed > 0) || approach <= 10 * s.impact_speed || cfg.force_dt) continue;
+    std::ostringstream os;
+    os << cfg.source << ": key 'species[" << k << "].impact_speed': " << s.impact_speed
+       << " m/s, but the initial particles approach at up to " << approach << " m/s, where a contact lasts "
+       << s.t_c * std::pow(s.impact_speed / approach, 0.2) / sim.dt << " steps instead of " << s.t_c / sim.dt
+       << "; expected an impact speed of at least a tenth of that (or time.force = true)";
+    throw ConfigError(os.str());
+  }
+}
+}  // namespace
+
 void ContactForces::setup(Simulation& sim) {
   if (sim.restored) refresh_diagnostics(sim);
+  else refuse_impacts_faster_than_expected(sim);
 }
 
 void ContactForces::refresh_diagnostics(const Simulation& sim) {

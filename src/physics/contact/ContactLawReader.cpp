@@ -9,7 +9,15 @@
 
 namespace cassini {
 
-void read_species_law(CaseFile& f, const std::string& p, Species& s) {
+namespace {
+ContactSettings& settings_of(Config& c) {
+  if (!c.has<ContactSettings>()) c.set(ContactSettings{});
+  return c.edit<ContactSettings>();
+}
+}  // namespace
+
+void read_species_law(CaseFile& f, const std::string& p, const Species& geometry, Config& c) {
+  SpeciesLaw s;
   const std::string model = f.string(p + "model", "linear");
   if (model == "hertz") {
     s.youngs_modulus = f.positive(p + "youngs_modulus");
@@ -58,35 +66,38 @@ void read_species_law(CaseFile& f, const std::string& p, Species& s) {
     f.fail(p + "kt_ratio", "a tangential stiffness ratio > 0 when the species has friction (mu_s > 0)");
   if (s.youngs_modulus > 0) {
     if (s.v_c > 0) f.fail(p + "restitution", "\"constant\" with model = \"hertz\"");
-    const double m = s.density * 4.0 / 3.0 * std::numbers::pi * std::pow(s.radius_min, 3);
+    const double a = geometry.radius_min, m = geometry.density * 4.0 / 3.0 * std::numbers::pi * a * a * a;
     const double E = hertz_e_star(s.youngs_modulus, s.poisson_ratio, s.youngs_modulus, s.poisson_ratio);
-    s.t_c = hertz_contact_time(0.5 * m, 0.5 * s.radius_min, E, s.impact_speed);
+    s.t_c = hertz_contact_time(0.5 * m, 0.5 * a, E, s.impact_speed);
   }
   for (const ContactParameter& q : LinearSpringDashpot::parameters()) {
     const double v = f.number(p + q.key, q.fallback);
     if (!(v >= q.min)) f.fail(p + q.key, q.expected);
     s.declared[q.key] = v;
   }
+  settings_of(c).species.push_back(s);
 }
 
 void read_pair_laws(CaseFile& f, Config& c) {
   // ---- contact parameters per species pair: mixed by default, [[pair]] tables override
-  const std::size_t n = c.species.size();
-  c.pairs.resize(n * n);
+  ContactSettings& cs = settings_of(c);
+  const std::size_t n = cs.species.size();
+  cs.pairs.resize(n * n);
   for (std::size_t a = 0; a < n; ++a)
     for (std::size_t b = 0; b < n; ++b) {
-      const Species &s = c.species[a], &t = c.species[b];
-      c.pairs[a * n + b] = {0.5 * (s.t_c + t.t_c), 0.5 * (s.e + t.e), std::min(s.mu_s, t.mu_s), std::min(s.mu_d, t.mu_d),
+      const SpeciesLaw &s = cs.species[a], &t = cs.species[b];
+      const std::string &s_name = c.species[a].name, &t_name = c.species[b].name;
+      cs.pairs[a * n + b] = {0.5 * (s.t_c + t.t_c), 0.5 * (s.e + t.e), std::min(s.mu_s, t.mu_s), std::min(s.mu_d, t.mu_d),
                             0.5 * (s.kt_ratio + t.kt_ratio), 0.5 * (s.gammat_ratio + t.gammat_ratio),
                             0.5 * (s.v_c + t.v_c), std::min(s.mu_r, t.mu_r), std::min(s.mu_o, t.mu_o),
                             0.5 * (s.eta_r + t.eta_r)};
       for (const ContactParameter& q : LinearSpringDashpot::parameters())
-        c.pairs[a * n + b].declared[q.key] = a == b ? s.declared.at(q.key) : q.mix(s.declared.at(q.key), t.declared.at(q.key));
+        cs.pairs[a * n + b].declared[q.key] = a == b ? s.declared.at(q.key) : q.mix(s.declared.at(q.key), t.declared.at(q.key));
       if (s.youngs_modulus > 0 && t.youngs_modulus > 0) {
-        c.pairs[a * n + b].e_star = hertz_e_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
-        c.pairs[a * n + b].g_star = hertz_g_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
+        cs.pairs[a * n + b].e_star = hertz_e_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
+        cs.pairs[a * n + b].g_star = hertz_g_star(s.youngs_modulus, s.poisson_ratio, t.youngs_modulus, t.poisson_ratio);
       } else if ((s.youngs_modulus > 0) != (t.youngs_modulus > 0)) {
-        f.fail("species", "one contact model for all species (species '" + s.name + "' and '" + t.name +
+        f.fail("species", "one contact model for all species (species '" + s_name + "' and '" + t_name +
                               "' differ: a Hertz and a linear species have no common law)");
       }
     }
@@ -107,7 +118,7 @@ void read_pair_laws(CaseFile& f, Config& c) {
       f.fail(p + "species", "one [[pair]] table per species pair; pair[" + std::to_string(before) + "] already sets '" +
                                 names[0] + "' and '" + names[1] + "'");
     pair_table[idx[0] * n + idx[1]] = pair_table[idx[1] * n + idx[0]] = static_cast<int>(k);
-    PairParameters pp = c.pairs[idx[0] * n + idx[1]];
+    PairParameters pp = cs.pairs[idx[0] * n + idx[1]];
     pp.t_c = f.positive(p + "t_c", pp.t_c);
     // A table that gives e means a constant e; one that gives neither keeps the mixed law.
     const std::string law = f.string(p + "restitution", pp.v_c > 0 && !f.has(p + "e") ? "bridges" : "constant");
@@ -140,29 +151,34 @@ void read_pair_laws(CaseFile& f, Config& c) {
       v = f.number(p + q.key, v);
       if (!(v >= q.min)) f.fail(p + q.key, q.expected);
     }
-    c.pairs[idx[0] * n + idx[1]] = c.pairs[idx[1] * n + idx[0]] = pp;
+    cs.pairs[idx[0] * n + idx[1]] = cs.pairs[idx[1] * n + idx[0]] = pp;
   }
   for (std::size_t a = 0; a < n; ++a)
     for (std::size_t b = a + 1; b < n; ++b)
-      if ((c.species[a].v_c > 0) != (c.species[b].v_c > 0) && !law_set[a * n + b])
+      if ((cs.species[a].v_c > 0) != (cs.species[b].v_c > 0) && !law_set[a * n + b])
         f.fail("pair", "a [[pair]] table for species '" + c.species[a].name + "' and '" + c.species[b].name +
                            "' giving restitution (one uses the Bridges law, the other a constant e)");
+  c.rotation = cs.friction();
 }
 
 void read_contact_table(CaseFile& f, Config& c) {
-  c.clip_normal = f.boolean("contact.clip_normal", false);
-  const std::string scheme = f.string("contact.scheme", c.clip_normal ? "verlet" : "exact");
+  ContactSettings& cs = settings_of(c);
+  cs.clip_normal = f.boolean("contact.clip_normal", false);
+  const std::string scheme = f.string("contact.scheme", cs.clip_normal ? "verlet" : "exact");
   if (scheme != "exact" && scheme != "verlet") f.fail("contact.scheme", "\"exact\" or \"verlet\"");
-  c.exact_contacts = scheme == "exact";
-  if (c.exact_contacts && c.clip_normal)
+  cs.exact = scheme == "exact";
+  if (cs.exact && cs.clip_normal)
     f.fail("contact.scheme", "\"verlet\" with contact.clip_normal = true (the exact scheme integrates the unclipped law)");
-  c.damping_limit = f.boolean("contact.damping_limit", true);
+  cs.damping_limit = f.boolean("contact.damping_limit", true);
+  // The default has changed (it was Verlet): snapshots record the scheme in force.
+  c.recorded_settings.emplace_back("contact_scheme", scheme);
 }
 
 void read_time_step(CaseFile& f, Config& c) {
+  const ContactSettings& cs = c.get<ContactSettings>();
   double tc_min = 1e300;
-  for (const auto& s : c.species) tc_min = std::min(tc_min, s.t_c);
-  for (const auto& q : c.pairs) tc_min = std::min(tc_min, q.t_c);  // a [[pair]] may be stiffer
+  for (const auto& s : cs.species) tc_min = std::min(tc_min, s.t_c);
+  for (const auto& q : cs.pairs) tc_min = std::min(tc_min, q.t_c);  // a [[pair]] may be stiffer
   c.force_dt = f.boolean("time.force", false);
   if (f.has("time.dt") && f.has("time.n_c")) f.fail("time.n_c", "either time.dt or time.n_c, not both");
   if (f.has("time.dt")) {
@@ -173,11 +189,11 @@ void read_time_step(CaseFile& f, Config& c) {
   }
   // Below N_c = 10 Verlet's restitution is badly wrong; the exact scheme is exact at any N_c
   // but dense packings need a few steps per contact time (see docs/accuracy-cost.md).
-  const double soft = c.exact_contacts ? 5 : 10;
+  const double soft = cs.exact ? 5 : 10;
   if (c.dt > tc_min / soft && !c.force_dt)
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt <= t_c/" + std::to_string(static_cast<int>(soft)) + " = " + std::to_string(tc_min / soft) +
-               (c.exact_contacts ? " (dense packings are not stable beyond" : " (the restitution is badly wrong beyond") +
+               (cs.exact ? " (dense packings are not stable beyond" : " (the restitution is badly wrong beyond") +
                "; set time.force = true to run anyway)");
   // Beyond the stability limit on one contact a run is refused even with time.force: for
   // Verlet 0.64 t_c at e -> 1, 0.29 t_c at e = 0.1 (verlet_stability_limit); the exact scheme
@@ -186,10 +202,10 @@ void read_time_step(CaseFile& f, Config& c) {
   // Under the Bridges law Verlet's limit is taken at e = 0.05, an impact 3.6e5 v_c fast.
   auto lowest_e = [](double v_c, double e) { return v_c > 0 ? 0.05 : e; };
   double dt_stable = 1e300;
-  for (const auto& s : c.species)
-    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * s.t_c : verlet_stability_limit(s.t_c, lowest_e(s.v_c, s.e)));
-  for (const auto& q : c.pairs)
-    dt_stable = std::min(dt_stable, c.exact_contacts ? 0.5 * q.t_c : verlet_stability_limit(q.t_c, lowest_e(q.v_c, q.e)));
+  for (const auto& s : cs.species)
+    dt_stable = std::min(dt_stable, cs.exact ? 0.5 * s.t_c : verlet_stability_limit(s.t_c, lowest_e(s.v_c, s.e)));
+  for (const auto& q : cs.pairs)
+    dt_stable = std::min(dt_stable, cs.exact ? 0.5 * q.t_c : verlet_stability_limit(q.t_c, lowest_e(q.v_c, q.e)));
   if (c.dt >= dt_stable)
     f.fail(f.has("time.dt") ? "time.dt" : "time.n_c",
            "dt below the stability limit " + std::to_string(dt_stable) +

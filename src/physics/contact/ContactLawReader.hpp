@@ -8,16 +8,19 @@
 
 #include "core/CaseFile.hpp"
 #include "core/Config.hpp"
+#include "physics/contact/ContactSettings.hpp"
 
 namespace cassini {
 
-// The law keys of species table `prefix` ("species[i].") into s; its geometry (density, radii)
-// is read first, for Hertz's contact time. The law's parts' declared parameters included.
-void read_species_law(CaseFile& f, const std::string& prefix, Species& s);
+// The law keys of species table `prefix` ("species[i].") as the next species of c's
+// ContactSettings; its geometry (density, radii) is read first, for Hertz's contact time. The
+// law's parts' declared parameters included.
+void read_species_law(CaseFile& f, const std::string& prefix, const Species& geometry, Config& c);
 // Every pair's parameters: like pairs their species' own, unlike pairs mixed, [[pair]] tables
-// overriding.
+// overriding. Sets Config::rotation (some contact has friction).
 void read_pair_laws(CaseFile& f, Config& c);
-// contact.scheme, contact.clip_normal, contact.damping_limit.
+// contact.scheme (recorded in Config::recorded_settings), contact.clip_normal,
+// contact.damping_limit.
 void read_contact_table(CaseFile& f, Config& c);
 // time.dt, or time.n_c against the stiffest pair's t_c; time.force; refused beyond the scheme's
 // stability limit.

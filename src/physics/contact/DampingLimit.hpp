@@ -49,8 +49,8 @@ class DampingLimit {
     d.on_ = true;
     const std::size_t found = p.find_column("damping_load");
     d.owner_ = found == ParticleStore::kNoColumn;
-    d.load_ = d.owner_ ? p.declare("damping_load", 2, true) : found;  // last step's K_i, G_i; ghosts read them
-    d.next_ = d.owner_ ? p.declare("damping_load_next", 2, false) : p.find_column("damping_load_next");
+    d.load_ = d.owner_ ? p.declare("damping_load", 2, ParticleStore::Ghosts::carry) : found;  // last step's K_i, G_i; ghosts read them
+    d.next_ = d.owner_ ? p.declare("damping_load_next", 2, ParticleStore::Ghosts::zero) : p.find_column("damping_load_next");
     return d;
   }
   bool on() const { return on_; }

@@ -8,15 +8,17 @@
 
 namespace cassini {
 
-LinearSpringDashpot::LinearSpringDashpot(const Config& cfg, double dt) : n_(static_cast<int>(cfg.species.size())), dt_(dt) {
+LinearSpringDashpot::LinearSpringDashpot(const Config& config, double dt)
+    : n_(static_cast<int>(config.species.size())), dt_(dt) {
+  const ContactSettings& cfg = config.get<ContactSettings>();
   clip_ = cfg.clip_normal;
-  exact_ = cfg.exact_contacts;
+  exact_ = cfg.exact;
   friction_ = cfg.friction();
   table_.resize(n_ * n_);
   for (int a = 0; a < n_; ++a)
     for (int b = 0; b < n_; ++b) {
       // Each pair its own t_c and e through its reduced mass (spec section 1); unlike pairs
-      // mix their species' values unless a [[pair]] table sets them (Config::pair).
+      // mix their species' values unless a [[pair]] table sets them (ContactSettings::pair).
       const PairParameters& q = cfg.pair(a, b);
       const double omega = std::numbers::pi / q.t_c;
       PairLaw& L = table_[a * n_ + b];

@@ -65,6 +65,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/Config.hpp"
+#include "physics/contact/ContactSettings.hpp"
 #include "core/ParticleStore.hpp"
 #include "core/Vec3.hpp"
 #include "physics/contact/Adhesion.hpp"
@@ -569,10 +570,10 @@ class LinearSpringDashpot {
   // own species). n: unit normal from the wall to the centre; delta: overlap; xi: the (particle,
   // wall) spring or nullptr without friction. torque receives the wall's torque on i.
   // shift (if given) receives the distance to move the particle along n at the end of the step.
-  // impact: the (particle, wall) impact speed under the Bridges law (ParticleStore::wall_impact):
+  // impact: the (particle, wall) impact speed under the Bridges law (WallHistory, WallContact.hpp):
   // set by the first evaluation of a contact, cleared by its exit step; the caller clears it
   // when a particle is away from the wall without an exit step.
-  // roll: the (particle, wall) rolling-resistance torque spring (ParticleStore::wall_roll), or
+  // roll: the (particle, wall) rolling-resistance torque spring (WallHistory), or
   // nullptr; its torque joins `torque`. wall_radius: the surface's radius of curvature for Hertz
   // and rolling resistance (a sphere such as the moonlet: R* = a R / (a + R)); 0: flat (R* = a).
   // damping: DampingLimit's scale for this particle; load (if given): the contact's Stability.

@@ -19,16 +19,15 @@ std::vector<Plane> domain_walls(const Config& cfg) {
 
 ModuleKind PlaneWalls::kind() {
   auto make = [](Simulation& sim) {
-    const int planes = static_cast<int>(domain_walls(sim.cfg).size());
-    auto walls = std::make_unique<PlaneWalls>(sim.cfg, sim.dt, sim.claim_wall_slots(planes));
+    auto walls = std::make_unique<PlaneWalls>(sim.cfg, sim.dt);
+    walls->history_ = WallHistory(sim.particles, "plane_wall", static_cast<int>(walls->planes_.size()), walls->law_);
     if (walls->law_.damping_limit()) walls->limit_ = DampingLimit::attach(sim.particles);
     return walls;
   };
   return {"walls", {}, nullptr, make};
 }
 
-PlaneWalls::PlaneWalls(const Config& cfg, double dt, int first_slot)
-    : law_(cfg, dt), planes_(domain_walls(cfg)), first_slot_(first_slot) {}
+PlaneWalls::PlaneWalls(const Config& cfg, double dt) : law_(cfg, dt), planes_(domain_walls(cfg)) {}
 
 void PlaneWalls::post_rebuild(Simulation& sim) {
   ParticleStore& p = sim.particles;
@@ -42,10 +41,7 @@ void PlaneWalls::post_rebuild(Simulation& sim) {
         candidates_[i] |= std::uint8_t(1u << w);
         continue;
       }
-      const WallSprings s = wall_springs(p, law_.friction(), i, first_slot_ + w);
-      if (s.xi) s.xi->setZero();
-      if (s.roll) s.roll->setZero();
-      if (s.impact) *s.impact = 0;
+      history_.forget(p, i, w);
     }
 }
 
@@ -63,8 +59,7 @@ void PlaneWalls::force(Simulation& sim) {
       if (!(candidates_[i] >> w & 1)) continue;
       const Plane& pl = planes_[w];
       const double delta = a - (p.x[i] - pl.point).dot(pl.normal);
-      if (wall_contact(law_, p, i, pl.normal, delta, wall_springs(p, law_.friction(), i, first_slot_ + w), move, 0,
-                       limit_, !sim.stepping.initial_forces))
+      if (wall_contact(law_, p, i, pl.normal, delta, history_, w, move, 0, limit_, !sim.stepping.initial_forces))
         deepest.see(delta, a, p.id[i]);
     }
     if (!move.isZero(0)) shifts_.add(i, move);
@@ -81,7 +76,7 @@ void PlaneWalls::wall_forces(const Simulation& sim, std::vector<WallForce>& out)
       const Plane& pl = planes_[w];
       const double s = (p.x[i] - pl.point).dot(pl.normal);
       if (s >= p.radius[i]) continue;
-      const Vec3 f = wall_contact_force(law_, p, i, pl.normal, p.radius[i] - s, first_slot_ + w);
+      const Vec3 f = wall_contact_force(law_, p, i, pl.normal, p.radius[i] - s, history_, w);
       out.push_back({p.id[i], p.x[i] - s * pl.normal, s * pl.normal, f});
     }
 }
@@ -92,7 +87,7 @@ double PlaneWalls::elastic_energy(const Simulation& sim) const {
   for (std::size_t i = 0; i < p.nlocal; ++i)
     for (std::size_t w = 0; w < planes_.size(); ++w) {
       const double delta = p.radius[i] - (p.x[i] - planes_[w].point).dot(planes_[w].normal);
-      if (delta > 0) e += wall_contact_energy(law_, p, i, planes_[w].normal, delta, first_slot_ + int(w));
+      if (delta > 0) e += wall_contact_energy(law_, p, i, planes_[w].normal, delta, history_, int(w));
     }
   return e;
 }

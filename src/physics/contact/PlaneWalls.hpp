@@ -2,13 +2,14 @@
 // Flat walls: the domain faces declared "wall" in domain.boundary. A particle touching a wall
 // feels the same LSD law as a particle-particle contact with the wall as an infinite mass
 // (m_ij = m_i), using the particle's own species parameters. Each (particle, wall) keeps its
-// own tangential spring, stored with the particle so it migrates with it.
+// own springs, in this module's per-particle columns plane_wall_* (WallHistory).
 #include <cstdint>
 #include <vector>
 
 #include "core/Module.hpp"
 #include "core/ModuleRegistry.hpp"
 #include "physics/contact/LinearSpringDashpot.hpp"
+#include "physics/contact/WallContact.hpp"
 
 namespace cassini {
 
@@ -20,7 +21,7 @@ struct Plane {
 class PlaneWalls : public Module {
  public:
   static ModuleKind kind();  // the domain faces declared "wall" (added to `modules` by itself)
-  PlaneWalls(const Config& cfg, double dt, int first_slot);
+  PlaneWalls(const Config& cfg, double dt);
   std::string name() const override { return "walls (" + std::to_string(planes_.size()) + " planes)"; }
   unsigned stages() const override {
     return kForce | kRebuild | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u);
@@ -40,7 +41,7 @@ class PlaneWalls : public Module {
   DampingLimit limit_;
   PendingShifts shifts_;
   std::vector<Plane> planes_;
-  int first_slot_;  // the first plane's column in the particles' wall springs
+  WallHistory history_;  // one point per plane
   // Per particle, the planes within its radius + skin at the last rebuild (one bit each): the
   // only ones it can touch, or have touched a step ago, before the next rebuild.
   std::vector<std::uint8_t> candidates_;
@@ -48,7 +49,7 @@ class PlaneWalls : public Module {
   std::int64_t worst_id_ = -1;
 };
 
-// Wall planes implied by a case's domain boundaries (used to size per-particle history).
+// Wall planes implied by a case's domain boundaries.
 std::vector<Plane> domain_walls(const Config& cfg);
 
 }  // namespace cassini

@@ -15,17 +15,17 @@ ModuleKind Moonlet::kind() {
     c.obstacle_radius = m.radius;
   };
   auto make = [](Simulation& sim) {
-    const int slot = sim.claim_wall_slots(1);  // its spring with each particle (friction)
-    auto moonlet = std::make_unique<Moonlet>(sim.cfg, sim.dt, slot);
+    auto moonlet = std::make_unique<Moonlet>(sim.cfg, sim.dt);
+    moonlet->history_ = WallHistory(sim.particles, "moonlet", 1, moonlet->law_);
     if (moonlet->law_.damping_limit()) moonlet->limit_ = DampingLimit::attach(sim.particles);
     return moonlet;
   };
   return {"moonlet", {}, read, make};
 }
 
-Moonlet::Moonlet(const Config& cfg, double dt, int slot)
+Moonlet::Moonlet(const Config& cfg, double dt)
     : law_(cfg, dt), gm_(kGravitationalConstant * cfg.get<MoonletSettings>().mass), radius_(cfg.get<MoonletSettings>().radius),
-      dims_(cfg.planar ? 2 : 3), slot_(slot) {}
+      dims_(cfg.planar ? 2 : 3) {}
 
 // Scalar components on purpose (no `r[2] = 0` on an Eigen vector): patching one lane goes
 // through the stack and stalls store-to-load forwarding in this once-per-particle loop.
@@ -37,7 +37,6 @@ Vec3 Moonlet::gravity(const Vec3& x) const {
 
 void Moonlet::force(Simulation& sim) {
   ParticleStore& p = sim.particles;
-  const bool fric = law_.friction();
   const bool planar = dims_ == 2;
   // Raw views and two passes: gravity for everyone (a branch-free loop the compiler
   // vectorises), then the rare contacts with the moonlet's surface.
@@ -71,22 +70,19 @@ void Moonlet::force(Simulation& sim) {
     if (!feels(p, i)) continue;
     const double x = X[i][0], y = X[i][1], z = planar ? 0.0 : X[i][2];
     const double d2 = x * x + y * y + z * z, reach = R + A[i];
-    // With friction each particle keeps a tangential spring with the moonlet (its last wall
-    // slot), reset when it lets go, as with any wall; the ring scene is frictionless.
-    const WallSprings springs = wall_springs(p, fric, i, slot_);
+    // Each particle keeps its springs with the moonlet (history_), reset when it lets go, as
+    // with any wall.
     // Most particles are far: no square root for them. Only this shell can hold the exact
     // scheme's exit step (a particle moves less than its radius per step: the tunnelling guard).
     const double far = exact ? reach + A[i] : reach;
     if (d2 >= far * far || d2 == 0) {
-      if (springs.xi) springs.xi->setZero();
-      if (springs.roll) springs.roll->setZero();
-      if (springs.impact) *springs.impact = 0;
+      history_.forget(p, i, 0);
       continue;
     }
     const double d = std::sqrt(d2), delta = reach - d;
     const Vec3 normal = Vec3(x, y, z) / d;
     Vec3 move = Vec3::Zero();
-    const bool touching = wall_contact(law_, p, i, normal, delta, springs, move, radius_, limit_, !sim.stepping.initial_forces);
+    const bool touching = wall_contact(law_, p, i, normal, delta, history_, 0, move, radius_, limit_, !sim.stepping.initial_forces);
     if (!move.isZero(0)) shifts_.add(i, move);
     if (!touching) continue;
     deepest.see(delta, A[i], p.id[i]);
@@ -112,7 +108,7 @@ void Moonlet::for_each_touching(const ParticleStore& p, Visit&& visit) const {
 void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) const {
   const ParticleStore& p = sim.particles;
   for_each_touching(p, [&](std::size_t i, const Vec3& n, double delta) {
-    const Vec3 f = wall_contact_force(law_, p, i, n, delta, slot_, radius_);
+    const Vec3 f = wall_contact_force(law_, p, i, n, delta, history_, 0, radius_);
     out.push_back({p.id[i], radius_ * n, p.x[i] - radius_ * n, f});
   });
 }
@@ -120,7 +116,7 @@ void Moonlet::wall_forces(const Simulation& sim, std::vector<WallForce>& out) co
 double Moonlet::elastic_energy(const Simulation& sim) const {
   double e = 0;
   for_each_touching(sim.particles, [&](std::size_t i, const Vec3& n, double delta) {
-    e += wall_contact_energy(law_, sim.particles, i, n, delta, slot_, radius_);
+    e += wall_contact_energy(law_, sim.particles, i, n, delta, history_, 0, radius_);
   });
   return e;
 }

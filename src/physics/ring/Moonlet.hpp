@@ -13,6 +13,7 @@
 #include "core/ModuleRegistry.hpp"
 #include "core/ParticleStore.hpp"
 #include "physics/contact/LinearSpringDashpot.hpp"
+#include "physics/contact/WallContact.hpp"
 
 namespace cassini {
 
@@ -23,8 +24,7 @@ struct MoonletSettings {  // [moonlet]
 class Moonlet : public Module {
  public:
   static ModuleKind kind();
-  // slot: the moonlet's column in the particles' wall springs (used with friction).
-  Moonlet(const Config& cfg, double dt, int slot);
+  Moonlet(const Config& cfg, double dt);
   std::string name() const override { return "moonlet"; }
   unsigned stages() const override { return kForce | (law_.exact() || limit_.owner() ? kFinalIntegrate : 0u); }
   void final_integrate(Simulation& sim) override;
@@ -64,7 +64,7 @@ class Moonlet : public Module {
   PendingShifts shifts_;
   double gm_, radius_;
   int dims_;
-  int slot_;
+  WallHistory history_;  // each particle's springs with the surface (one point)
   double max_overlap_ = 0;
   std::int64_t worst_id_ = -1;
   long contacts_ = 0;

@@ -57,7 +57,7 @@ ModuleKind MultiRateHill::kind() {
   };
   auto make = [](Simulation& sim) {
     auto m = std::make_unique<MultiRateHill>(sim.cfg, sim.dt);
-    m->mode_column_ = sim.particles.declare("multirate_mode", 1, true);  // ghosts' modes decide who is awake
+    m->mode_column_ = sim.particles.declare("multirate_mode", 1, ParticleStore::Ghosts::carry);  // ghosts' modes decide who is awake
     return m;
   };
   return {"multirate", {"hill"}, read, make};
