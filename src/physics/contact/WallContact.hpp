@@ -87,17 +87,15 @@ class WallHistory {
 inline bool wall_contact(const LinearSpringDashpot& law, ParticleStore& p, std::size_t i, const Vec3& n, double delta,
                          const WallHistory& history, int point, Vec3& move, double wall_radius,
                          const DampingLimit& limit, bool advance = true) {
-  WallHistory::Springs s = history.get(p, i, point);
   if (delta <= 0) {  // apart now: a new contact starts unloaded
-    history.relax(p, i, point);
     // The exact scheme's exit step: touching a step ago (delta + v_n dt > 0), parted now.
     if (!law.exact() || delta + p.v[i].dot(n) * law.dt() <= 0) {
       history.forget(p, i, point);
       return false;
     }
-    s.xi.setZero();
-    s.roll.setZero();
+    history.relax(p, i, point);
   }
+  WallHistory::Springs s = history.get(p, i, point);
   Vec3 torque;
   double shift = 0;
   const bool touching = delta > 0;
