@@ -21,7 +21,8 @@ namespace cassini {
 // spring (`<name>_xi`, scenes with friction), the Bridges impact speed (`<name>_impact`) and the
 // rolling-resistance torque spring (`<name>_roll`). Snapshots written before the wall modules
 // owned their columns kept every module's springs side by side in wall_xi, wall_impact and
-// wall_roll, in the order the modules were made: each column names its share there (Former).
+// wall_roll, in the order the modules were made: each column names its share there
+// (FormerColumn), which a restart from such a snapshot reads.
 class WallHistory {
  public:
   struct Springs {
