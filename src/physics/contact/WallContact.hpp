@@ -31,7 +31,7 @@ class WallHistory {
   };
 
   WallHistory() = default;
-  WallHistory(ParticleStore& p, const std::string& name, int points, const LinearSpringDashpot& law) : points_(points) {
+  WallHistory(ParticleStore& p, const std::string& name, int points, const LinearSpringDashpot& law) {
     auto declare = [&](const std::string& part, bool needed, int per, const char* unit) {
       if (!needed || points == 0) return ParticleStore::kNoColumn;
       // This module's share of the former shared column: after the wall modules made before it.
@@ -45,8 +45,6 @@ class WallHistory {
     impact_ = declare("impact", law.velocity_dependent(), 1, "m s-1");
     roll_ = declare("roll", law.rolling(), 3, "m");
   }
-  int points() const { return points_; }
-
   Springs get(const ParticleStore& p, std::size_t i, int point) const {
     Springs s;
     if (xi_ != ParticleStore::kNoColumn) s.xi = Vec3(p.column(xi_, i) + 3 * point);
@@ -74,7 +72,6 @@ class WallHistory {
   bool rolling() const { return roll_ != ParticleStore::kNoColumn; }
 
  private:
-  int points_ = 0;
   std::size_t xi_ = ParticleStore::kNoColumn, impact_ = ParticleStore::kNoColumn, roll_ = ParticleStore::kNoColumn;
 };
 
