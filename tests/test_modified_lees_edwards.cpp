@@ -237,6 +237,89 @@ TEST(ModifiedLeesEdwards, InflowIntoLE1CarriesLE2sStatisticsWithTheMoonlet) {
   EXPECT_GT(std::abs(ratio_out - 1.0) + std::abs(disp_out - 1.0), 0.1) << "the moonlet must show downstream (the control)";
 }
 
+namespace {
+
+// Two particles in a sheared 1 km box under the modified boundaries, no Hill frame (the shear
+// alone: gamma = 1e-4 /s, a velocity jump of 0.1 m/s across y), at t = 5,000 s, when the shear
+// offset is half the box: LE1 particle P (id 0) leaves through the bottom y face at ~100 s
+// and lands next to LE1's inflow face at the top (x = lo, where the flow gamma y is positive);
+// LE2 particle F (id 1) moves towards its outflow face near the top, so that its inflow image
+// beyond LE1's inflow face (at x - Lx) is shown (it came into range from inside LE2) and lies
+// where P lands when feed_x = 495 m (1.1 radii deep); elsewhere with feed_x = 0.
+std::unique_ptr<Simulation> inflow_corner(double feed_x) {
+  auto sim = make_sim(R"(
+modules = ["contact"]
+[domain]
+lo = [-500.0, -500.0, -10.0]
+hi = [500.0, 500.0, 10.0]
+boundary = ["periodic", "lees_edwards", "periodic"]
+shear_rate = 1.0e-4
+planar = true
+modified_lees_edwards = true
+[[species]]
+density = 500.0
+radius = 2.0
+t_c = 1.0
+e = 0.5
+[particles]
+init = "none"
+[contact]
+skin = 0.5
+[time]
+n_c = 20
+end = 1.0e6
+)");
+  const double a = 2.0, m = 500.0 * 4.0 / 3.0 * M_PI * a * a * a, tau_c = 102.5;  // P's crossing, +- a rebuild
+  sim->step_count = std::lround(5000.0 / sim->dt);
+  sim->time = 5000.0;
+  sim->domain.shear.offset = 1.0e-4 * 1000.0 * sim->time;
+  if (sim->domain.rank == 0) {
+    // P lands at x + offset(5000 + tau_c) - Lx = -499.5 (0.5 m inside the inflow face), y ~ 499.9.
+    sim->particles.add(0, 0, a, m, Vec3(0.5 - 0.1 * tau_c, -499.0, 0.0), Vec3(0.0, -0.01, 0.0));
+    sim->particles.add(1, 0, a, m, Vec3(feed_x, 499.0, 0.0), Vec3(0.04, 0.0, 0.0));
+    sim->particles.le_copy.back() = 1;
+  }
+  sim->setup();
+  return sim;
+}
+
+}  // namespace
+
+// LE1 is a sheared box across y (its y images repeat along x) but has no x images (beyond its
+// inflow face lie LE2's inflow images). The two meet at the corners: a particle that wraps
+// through y next to the inflow face cannot have seen the inflow images there. One that lands
+// on one is taken out (counted as drained and `cornered`), as a returned particle that lands on
+// LE1 material is; one that lands clear stays. Before, the run went on with the overlap (1.1
+// radii here) until the overlap guard stopped it (once in six hot propeller runs at e = 0.9).
+TEST(ModifiedLeesEdwards, WrappingIntoAnInflowCornerOntoAFeedImageDrainsTheParticle) {
+  for (const double feed_x : {495.0, 0.0}) {
+    auto sim = inflow_corner(feed_x);
+    bool wrapped = false;
+    try {
+      for (int s = 0; s < int(120.0 / sim->dt); ++s) {
+        sim->step();
+        const long here = local_index(*sim, 0);
+        if (here >= 0 && sim->particles.x[here][1] > 0) wrapped = true;
+      }
+    } catch (const GuardError& e) {
+      FAIL() << "feed_x = " << feed_x << ": " << e.what();
+    }
+    long wrapped_any = wrapped, cornered = sim->halo.cornered, drained = sim->halo.drained, in_le1 = 0;
+    for (std::size_t i = 0; i < sim->particles.nlocal; ++i) in_le1 += sim->particles.le_copy[i] == 0;
+    long g[4], l[4] = {wrapped_any, cornered, drained, in_le1};
+    MPI_Allreduce(l, g, 4, MPI_LONG, MPI_SUM, sim->domain.comm);
+    if (feed_x > 0) {
+      EXPECT_EQ(g[1], 1) << "P landed on F's inflow image: taken out";
+      EXPECT_EQ(g[2], 1) << "and counted as drained";
+      EXPECT_EQ(g[3], 0);
+    } else {
+      EXPECT_EQ(g[0], 1) << "P must wrap through y within the run";
+      EXPECT_EQ(g[1], 0) << "P landed clear of every inflow image: it stays";
+      EXPECT_EQ(g[3], 1);
+    }
+  }
+}
+
 TEST(ModifiedLeesEdwards, NeedsShearedBoundaries) {
   try {
     config_from(kPair, {"domain.modified_lees_edwards=true"});

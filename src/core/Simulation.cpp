@@ -176,13 +176,18 @@ bool Simulation::remove_stillborn() {
   for (std::size_t i = 0; i < p.nlocal && !any_entered; ++i) any_entered = *p.column(entered, i) != 0;
   std::vector<std::size_t> doomed;
   if (any_entered) {
+    // A clone or a returned particle overlaps nothing that saw it coming; one that wrapped
+    // through y into an inflow corner saw all but the LE2 inflow images there.
     neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
-      if (*p.column(entered, c.i) != 0 && (doomed.empty() || doomed.back() != c.i)) doomed.push_back(c.i);
+      const double how = *p.column(entered, c.i);
+      if (how == 0 || (how == 3 && !halo.feed_image(p, c.j))) return;
+      if (doomed.empty() || doomed.back() != c.i) doomed.push_back(c.i);
     });
-    for (const std::size_t i : doomed) {  // a clone is not inserted; a returned particle is drained after all
-      const bool clone = *p.column(entered, i) == 1;
-      (clone ? halo.fed : halo.returned) -= 1;
-      (clone ? halo.stillborn : halo.drained) += 1;
+    for (const std::size_t i : doomed) {  // a clone is not inserted; a returned or cornered one is drained
+      const double how = *p.column(entered, i);
+      if (how == 1) --halo.fed, ++halo.stillborn;
+      if (how == 2) --halo.returned, ++halo.drained;
+      if (how == 3) ++halo.cornered, ++halo.drained;
     }
     for (std::size_t i = 0; i < p.nlocal; ++i) *p.column(entered, i) = 0;
   }
@@ -379,12 +384,13 @@ void Simulation::run(RunSink* out) {
   output_ = nullptr;
   if (global_guard_pending()) check_guards();
   if (domain.fed_x) {  // the modified boundaries' bookkeeping, for summary.json
-    long long local[5] = {halo.fed, halo.drained, halo.stillborn, 0, halo.returned}, g[5];
+    long long local[6] = {halo.fed, halo.drained, halo.stillborn, 0, halo.returned, halo.cornered}, g[6];
     for (std::size_t i = 0; i < particles.nlocal; ++i) local[3] += particles.le_copy[i] == 0;
-    MPI_Allreduce(local, g, 5, MPI_LONG_LONG, MPI_SUM, domain.comm);
+    MPI_Allreduce(local, g, 6, MPI_LONG_LONG, MPI_SUM, domain.comm);
     std::ostringstream os;
     os << "{\"fed_into_le1\": " << g[0] << ", \"drained_from_le1\": " << g[1] << ", \"clones_not_inserted\": " << g[2]
-       << ", \"returned_against_flow\": " << g[4] << ", \"le1_particles\": " << g[3]
+       << ", \"returned_against_flow\": " << g[4] << ", \"cornered_on_feed_images\": " << g[5]
+       << ", \"le1_particles\": " << g[3]
        << ", \"le2_particles\": " << total_particles() - g[3] << "}";
     set_result("modified_lees_edwards", os.str());
   }

@@ -335,12 +335,12 @@ void write_parameters(hid_t file, const Simulation& sim, const std::string& case
   state.push_back({"halo.removed", double(total[0])});
   state.push_back({"halo.removed_upper", double(total[1])});
   if (dom.fed_x) {  // the same on every rank
-    const long long fed[4] = {sim.halo.fed, sim.halo.drained, sim.halo.stillborn, sim.halo.returned};
-    long long fed_total[4];
-    MPI_Allreduce(fed, fed_total, 4, MPI_LONG_LONG, MPI_SUM, dom.comm);
+    const long long fed[5] = {sim.halo.fed, sim.halo.drained, sim.halo.stillborn, sim.halo.returned, sim.halo.cornered};
+    long long fed_total[5];
+    MPI_Allreduce(fed, fed_total, 5, MPI_LONG_LONG, MPI_SUM, dom.comm);
     state.push_back({"halo.next_id", double(sim.halo.next_id)});
-    const char* names[4] = {"halo.fed", "halo.drained", "halo.stillborn", "halo.returned"};
-    for (int k = 0; k < 4; ++k) state.push_back({names[k], double(fed_total[k])});
+    const char* names[5] = {"halo.fed", "halo.drained", "halo.stillborn", "halo.returned", "halo.cornered"};
+    for (int k = 0; k < 5; ++k) state.push_back({names[k], double(fed_total[k])});
   }
   Handle params = group(file, "parameters");
   {
@@ -561,7 +561,8 @@ void read_snapshot(Simulation& sim, const std::string& path) {
     if (sim.restart_value("halo.next_id", count)) sim.halo.next_id = static_cast<std::int64_t>(count);
     // Totals over the ranks: rank 0 carries them on (a snapshot before 2026-11-28 lacks the last two).
     for (auto [key, counter] : {std::pair{"halo.fed", &sim.halo.fed}, {"halo.drained", &sim.halo.drained},
-                                {"halo.stillborn", &sim.halo.stillborn}, {"halo.returned", &sim.halo.returned}})
+                                {"halo.stillborn", &sim.halo.stillborn}, {"halo.returned", &sim.halo.returned},
+                                {"halo.cornered", &sim.halo.cornered}})
       if (sim.domain.rank == 0 && sim.restart_value(key, count)) *counter = static_cast<std::int64_t>(count);
     sim.step_count = step;
     sim.time = state[0];

@@ -156,9 +156,9 @@ void HaloExchange::migrate(ParticleStore& p, PairHistory& history) {
       ++drained;
       shear_energy -= 0.5 * p.mass[i] * p.v[i].squaredNorm();
     }
+    double jump = 0;
     if (dom_.shear.enabled) {  // crossing the sheared boundary: shift x, jump vx
       const double off = dom_.shear.wrapped(L[0]), dv = dom_.shear.rate * L[1];
-      double jump = 0;
       if (x[1] >= dom_.hi[1]) { x[1] -= L[1]; x[0] -= off; jump = -dv; }
       else if (x[1] < dom_.lo[1]) { x[1] += L[1]; x[0] += off; jump = dv; }
       if (jump != 0) {
@@ -177,6 +177,13 @@ void HaloExchange::migrate(ParticleStore& p, PairHistory& history) {
         if (!gone && x[d] >= dom_.hi[d]) ++removed_upper;
         gone = true;
       }
+    }
+    // An LE1 particle that wrapped through y next to its inflow face: beyond that face lie
+    // LE2's inflow images, which it could not see from across y (there LE1's images repeat
+    // along x). Simulation::remove_stillborn takes it out if it landed on one.
+    if (jump != 0 && dom_.fed_x && p.le_copy[i] == 0) {
+      const double flow = dom_.shear.rate * x[1];
+      if ((flow > 0 && x[0] < dom_.lo[0] + range_) || (flow < 0 && x[0] >= dom_.hi[0] - range_)) *p.column(entered, i) = 3;
     }
     const int dest = dom_.owner(x);
     if (gone || dest != dom_.rank) {

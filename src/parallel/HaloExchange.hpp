@@ -55,9 +55,22 @@ class HaloExchange {
   // new neighbour list shows the overlap): nothing there saw them coming. A clone taken out
   // counts here; a returned one counts as drained.
   std::int64_t stillborn = 0;
+  // LE1 particles that wrapped through the sheared y boundary into a corner of LE1's inflow
+  // face and landed on an LE2 inflow image, which nothing across y showed them (LE1's images
+  // repeat along x across y; LE1 itself does not across x: the two meet only at these
+  // corners). Taken out as a returned one is (Simulation::remove_stillborn), counted here and
+  // as drained.
+  std::int64_t cornered = 0;
+  // Ghost j is an image of an LE2 particle beyond LE1's inflow face (LE1 has no other
+  // unsheared images outside its x range). Valid at the ghost build.
+  bool feed_image(const ParticleStore& p, std::size_t j) const {
+    return j >= p.nlocal && p.copies && p.le_copy[j] == 0 && sheared_image(p, j) == 0 &&
+           (p.x[j][0] < dom_.lo[0] || p.x[j][0] >= dom_.hi[0]);
+  }
   // Per-particle columns of these boundaries (ParticleStore::declare, in snapshots):
   //  - kEnteredColumn: 1 for a clone made at this rebuild's migration, 2 for a returned particle,
-  //    else 0 (read by Simulation::remove_stillborn, cleared after it);
+  //    3 for one that wrapped through y next to the inflow face (`cornered`), else 0 (read by
+  //    Simulation::remove_stillborn, cleared after it);
   //  - kInflowColumn: 1 while an LE2 particle is shown to LE1 beyond LE1's inflow face.
   static constexpr const char* kEnteredColumn = "le_entered";
   static constexpr const char* kInflowColumn = "le_inflow_image";
