@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "TestScene.hpp"
+#include "parallel/Decomposition.hpp"
 #include "physics/contact/ContactSettings.hpp"
 
 using namespace cassini;
@@ -61,6 +62,21 @@ TEST(CaseFile, ImpossibleValuesAreRefused) {
   expect_error({"species.0.mu_s=0.2", "species.0.mu_d=0.5"}, "species[0].mu_d", "<= mu_s");
   expect_error({"domain.hi=[0.02, -1.0, 0.02]"}, "domain.hi", "larger than domain.lo");
   expect_error({"domain.boundary=[\"periodic\", \"sticky\", \"wall\"]"}, "domain.boundary", "\"periodic\", \"wall\" or \"open\"");
+  expect_error({"domain.decomposition=\"cubes\""}, "domain.decomposition", "\"grid\"");
+  expect_error({"domain.grid=[2, 1, 1]"}, "domain.grid", "unless domain.decomposition = \"grid\"");
+  expect_error({"domain.decomposition=\"grid\"", "domain.grid=[2, 1]"}, "domain.grid", "three region counts");
+  expect_error({"domain.decomposition=\"grid\"", "domain.grid=[0, 1, 1]"}, "domain.grid", "whole numbers >= 1");
+}
+
+TEST(CaseFile, GridShapeMustMatchTheRankCount) {
+  // The rank count is known only when the decomposition is made: refused there, naming the key.
+  auto config = config_from(kPair, {"domain.decomposition=\"grid\"", "domain.grid=[2, 2, 1]"});
+  try {
+    Decomposition dom(config, MPI_COMM_SELF);
+    FAIL() << "a 2 x 2 grid accepted on one rank";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("'domain.grid': 2 x 2 x 1 regions for 1 ranks"), std::string::npos) << e.what();
+  }
 }
 
 TEST(CaseFile, LongTimeStepsNeedForceAndUnstableOnesAreRefused) {

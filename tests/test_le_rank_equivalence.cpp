@@ -54,6 +54,37 @@ void compare_rank_counts(const std::string& text, const std::vector<std::string>
   }
 }
 
+// A grid of regions needs more ranks than the automatic shape gives at 4 (in 2D, 4 slabs have
+// no more surface than 2 x 2): the 2 x 2 grid (domain.grid) on 4 ranks against 1 rank.
+void compare_grid_2x2(const std::string& text, const std::vector<std::string>& over, int steps) {
+  int rank = 0, size = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  ASSERT_EQ(size, 4) << "run this test with 4 ranks";
+  StateById one, four;
+  double offset = 0;
+  MPI_Comm sub;
+  MPI_Comm_split(MPI_COMM_WORLD, rank == 0 ? 0 : MPI_UNDEFINED, rank, &sub);
+  if (sub != MPI_COMM_NULL) {
+    try {
+      one = run(text, over, sub, steps, &offset);
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "1 rank: " << e.what();
+    }
+    MPI_Comm_free(&sub);
+  }
+  std::vector<std::string> grid = over;
+  grid.insert(grid.end(), {"domain.decomposition=\"grid\"", "domain.grid=[2, 2, 1]"});
+  try {
+    four = run(text, grid, MPI_COMM_WORLD, steps, &offset);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "4 ranks, 2 x 2: " << e.what();
+  }
+  if (rank != 0) return;
+  EXPECT_GT(one.size(), 50u);
+  EXPECT_EQ(differing(one, four), 0) << "particles differing bitwise between 1 rank and a 2 x 2 grid";
+}
+
 // Frictional sheared gas: contact history must survive crossings of the sheared boundary.
 const char* kShearedGas = R"(
 seed = 77
@@ -107,6 +138,24 @@ TEST(LeesEdwardsRanks, MoreRanksThanCells) {
 TEST(LeesEdwardsRanks, FrictionalShearedGasMetisCells) {
   // Cells owned by METIS parts: the ranks across the sheared boundary are a patchwork.
   compare_rank_counts(kShearedGas, {"domain.decomposition=\"metis\""}, 10000, 0.02 * 0.99);
+}
+
+TEST(LeesEdwardsRanks, FrictionalShearedGasGridRebalanced) {
+  // A 2 x 2 grid of regions, cut across the sheared boundary too, its cuts moved along each
+  // axis at every fifth rebuild; the automatic shape on 1-4 ranks (slabs here) as well.
+  const std::vector<std::string> square = {"domain.lo=[0.0, -0.01, 0.0]", "domain.hi=[0.02, 0.01, 0.01]",
+                                           "domain.balance_every=5"};
+  compare_grid_2x2(kShearedGas, square, 3000);
+  std::vector<std::string> automatic = square;
+  automatic.push_back("domain.decomposition=\"grid\"");
+  compare_rank_counts(kShearedGas, automatic, 1000, 0.0);
+}
+
+TEST(LeesEdwardsRanks, PropellerPatchModifiedBoundariesMultiRateGrid) {
+  // The fed patch on a 2 x 2 grid: clones, drains and inflow images cross region corners.
+  compare_grid_2x2(kPropellerPatch, {"domain.modified_lees_edwards=true", "time.integrator=\"multirate\"",
+                                     "time.long_step=20.0"},
+                   3000);
 }
 
 TEST(LeesEdwardsRanks, PropellerPatchMultiRate) {

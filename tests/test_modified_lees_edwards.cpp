@@ -246,7 +246,7 @@ namespace {
 // LE2 particle F (id 1) moves towards its outflow face near the top, so that its inflow image
 // beyond LE1's inflow face (at x - Lx) is shown (it came into range from inside LE2) and lies
 // where P lands when feed_x = 495 m (1.1 radii deep); elsewhere with feed_x = 0.
-std::unique_ptr<Simulation> inflow_corner(double feed_x) {
+std::unique_ptr<Simulation> inflow_corner(double feed_x, bool outflow_corner = false) {
   auto sim = make_sim(R"(
 modules = ["contact"]
 [domain]
@@ -273,7 +273,11 @@ end = 1.0e6
   sim->step_count = std::lround(5000.0 / sim->dt);
   sim->time = 5000.0;
   sim->domain.shear.offset = 1.0e-4 * 1000.0 * sim->time;
-  if (sim->domain.rank == 0) {
+  if (sim->domain.rank == 0 && outflow_corner) {
+    // P leaves through the corner of the bottom face and LE1's outflow face there (x = lo:
+    // the flow gamma y is negative), crossing both within one rebuild interval (~10 s).
+    sim->particles.add(0, 0, a, m, Vec3(-499.9, -499.9, 0.0), Vec3(-0.01, -0.01, 0.0));
+  } else if (sim->domain.rank == 0) {
     // P lands at x + offset(5000 + tau_c) - Lx = -499.5 (0.5 m inside the inflow face), y ~ 499.9.
     sim->particles.add(0, 0, a, m, Vec3(0.5 - 0.1 * tau_c, -499.0, 0.0), Vec3(0.0, -0.01, 0.0));
     sim->particles.add(1, 0, a, m, Vec3(feed_x, 499.0, 0.0), Vec3(0.04, 0.0, 0.0));
@@ -318,6 +322,21 @@ TEST(ModifiedLeesEdwards, WrappingIntoAnInflowCornerOntoAFeedImageDrainsTheParti
       EXPECT_EQ(g[3], 1);
     }
   }
+}
+
+// A particle that leaves LE1 through a corner of its outflow face and a y face crossed the
+// outflow face: it is drained, as through the face alone. Before, only a particle that crossed
+// x alone was drained; one that crossed both was wrapped through y to the other side, where
+// the x wrap put it next to material from LE1's opposite x face (in a 4.6 km propeller box at
+// e = 0.9: 0.45 radii onto a clone's image, the overlap guard stopped the run).
+TEST(ModifiedLeesEdwards, LeavingThroughAnOutflowCornerDrains) {
+  auto sim = inflow_corner(0.0, true);
+  for (int s = 0; s < int(40.0 / sim->dt); ++s) sim->step();
+  long l[2] = {static_cast<long>(sim->halo.drained), 0}, g[2];
+  for (std::size_t i = 0; i < sim->particles.nlocal; ++i) l[1] += sim->particles.le_copy[i] == 0;
+  MPI_Allreduce(l, g, 2, MPI_LONG, MPI_SUM, sim->domain.comm);
+  EXPECT_EQ(g[0], 1) << "P left with the flow through the outflow face: drained";
+  EXPECT_EQ(g[1], 0) << "no LE1 particle remains";
 }
 
 TEST(ModifiedLeesEdwards, NeedsShearedBoundaries) {

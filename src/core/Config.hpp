@@ -40,7 +40,8 @@ struct Config {
   std::array<Boundary, 3> boundary{Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
   bool planar = false;  // centres stay on z = lo_z..hi_z midplane; z is never integrated
   int slab_axis = 0;
-  std::string decomposition = "slabs";  // slabs | metis (cells partitioned by METIS)
+  std::string decomposition = "slabs";  // slabs | grid (blocks of a px x py x pz grid) | metis (cells partitioned by METIS)
+  std::array<int, 3> grid_shape{0, 0, 0};  // "grid": regions per axis (0: the least surface for the box)
   long balance_every = 0;  // move the slab cuts to balance cost every this many rebuilds (0: never)
   double shear_rate = 0;  // Lees-Edwards gamma_dot (1/s); v_x = shear_rate * y is the imposed flow
   // Modified Lees-Edwards boundaries (thesis fig. 9.1): a second, moonlet-free copy LE2 of the

@@ -177,10 +177,10 @@ bool Simulation::remove_stillborn() {
   std::vector<std::size_t> doomed;
   if (any_entered) {
     // A clone or a returned particle overlaps nothing that saw it coming; one that wrapped
-    // through y into an inflow corner saw all but the LE2 inflow images there.
+    // through y saw all but what HaloExchange::unseen_after_wrap names.
     neighbors.for_each_overlap(p, false, [&](const NeighborList::Overlap& c) {
       const double how = *p.column(entered, c.i);
-      if (how == 0 || (how == 3 && !halo.feed_image(p, c.j))) return;
+      if (how == 0 || (how == 3 && !halo.unseen_after_wrap(p, c.i, c.j))) return;
       if (doomed.empty() || doomed.back() != c.i) doomed.push_back(c.i);
     });
     for (const std::size_t i : doomed) {  // a clone is not inserted; a returned or cornered one is drained
@@ -389,7 +389,7 @@ void Simulation::run(RunSink* out) {
     MPI_Allreduce(local, g, 6, MPI_LONG_LONG, MPI_SUM, domain.comm);
     std::ostringstream os;
     os << "{\"fed_into_le1\": " << g[0] << ", \"drained_from_le1\": " << g[1] << ", \"clones_not_inserted\": " << g[2]
-       << ", \"returned_against_flow\": " << g[4] << ", \"cornered_on_feed_images\": " << g[5]
+       << ", \"returned_against_flow\": " << g[4] << ", \"taken_out_at_corners\": " << g[5]
        << ", \"le1_particles\": " << g[3]
        << ", \"le2_particles\": " << total_particles() - g[3] << "}";
     set_result("modified_lees_edwards", os.str());

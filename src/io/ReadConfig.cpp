@@ -45,8 +45,18 @@ Config read_config(CaseFile& f) {
   c.slab_axis = axis_index(f, "domain.slab_axis", f.string("domain.slab_axis", "x"));
   if (c.planar && c.slab_axis == 2) f.fail("domain.slab_axis", "\"x\" or \"y\" in a planar scene");
   c.decomposition = f.string("domain.decomposition", "slabs");
-  if (c.decomposition != "slabs" && c.decomposition != "metis")
-    f.fail("domain.decomposition", "\"slabs\" (cuts along domain.slab_axis) or \"metis\" (a METIS partition of cells)");
+  if (c.decomposition != "slabs" && c.decomposition != "grid" && c.decomposition != "metis")
+    f.fail("domain.decomposition", "\"slabs\" (cuts along domain.slab_axis), \"grid\" (blocks of a grid of regions) or "
+                                   "\"metis\" (a METIS partition of cells)");
+  if (f.has("domain.grid")) {
+    if (c.decomposition != "grid") f.fail("domain.grid", "no key unless domain.decomposition = \"grid\"");
+    const std::vector<double> shape = f.numbers("domain.grid");
+    if (shape.size() != 3) f.fail("domain.grid", "three region counts [px, py, pz]");
+    for (int d = 0; d < 3; ++d) {
+      if (shape[d] < 1 || shape[d] != std::floor(shape[d])) f.fail("domain.grid", "whole numbers >= 1");
+      c.grid_shape[d] = static_cast<int>(shape[d]);
+    }
+  }
   c.balance_every = f.integer("domain.balance_every", 0);
   if (c.balance_every < 0) f.fail("domain.balance_every", "an integer >= 0 (rebuilds between load balancing; 0 = off)");
 

@@ -348,8 +348,19 @@ void RunOutput::summary(Simulation& sim, double wall, long steps, const std::str
   js << ",\n  \"halo_bytes_per_step\": " << num(steps > 0 ? double(traffic_sum[0]) / steps : 0.0)
      << ",\n  \"halo_messages_per_step\": " << num(steps > 0 ? double(traffic_sum[1]) / steps : 0.0);
   js << ",\n  \"neighbour_rebuilds\": " << sim.rebuilds << ",\n  \"slab_cuts\": [";
-  for (std::size_t r = 0; r < sim.domain.cuts.size(); ++r) js << (r ? ", " : "") << num(sim.domain.cuts[r]);
+  const std::vector<double>& slab_cuts = sim.domain.cuts[sim.domain.axis];
+  for (std::size_t r = 0; r < slab_cuts.size(); ++r) js << (r ? ", " : "") << num(slab_cuts[r]);
   js << "],\n  \"decomposition\": " << json_string(sim.cfg.decomposition);
+  if (sim.cfg.decomposition == "grid") {
+    const Decomposition& dom = sim.domain;
+    js << ",\n  \"grid\": [" << dom.grid[0] << ", " << dom.grid[1] << ", " << dom.grid[2] << "],\n  \"grid_cuts\": [";
+    for (int d = 0; d < 3; ++d) {
+      js << (d ? ", [" : "[");
+      for (std::size_t r = 0; r < dom.cuts[d].size(); ++r) js << (r ? ", " : "") << num(dom.cuts[d][r]);
+      js << "]";
+    }
+    js << "]";
+  }
   js << ",\n  \"imbalance_at_last_balancing\": " << num(sim.record.imbalance);
   js << ",\n  \"pair_evaluations_per_pair\": " << num(evaluations_per_pair);
   js << ",\n  \"imbalance_mean\": " << num(sim.record.imbalance_samples ? sim.record.imbalance_sum / sim.record.imbalance_samples : 1.0);

@@ -637,7 +637,8 @@ void check_restart_case(const std::string& snapshot, const CaseFile& now) {
   auto may_change = [](const std::string& key) {
     for (const char* prefix : {"output.", "guards."})
       if (key.rfind(prefix, 0) == 0) return true;
-    for (const char* k : {"time.end", "time.force", "domain.slab_axis", "domain.decomposition", "domain.balance_every"})
+    for (const char* k : {"time.end", "time.force", "domain.slab_axis", "domain.decomposition", "domain.grid",
+                        "domain.balance_every"})
       if (key == k) return true;
     return false;
   };

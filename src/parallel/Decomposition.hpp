@@ -1,12 +1,17 @@
 #pragma once
-// Which part of the box this rank owns. Two ways (domain.decomposition):
-//  - "slabs" (default): one slab along `axis`, bounded by cuts[rank] and cuts[rank+1]. The
-//    cuts are plain data so a load balancer can move them at run time.
+// Which part of the box this rank owns. Three ways (domain.decomposition):
+//  - "slabs" (default): one slab along `axis`, bounded by two cuts along it.
+//  - "grid": a block of a px x py (x pz) grid of regions, like LAMMPS's processor grid: the
+//    faces of a region shrink as the rank count grows, where a slab's do not (a slab's halo is
+//    a per-step floor at many ranks: docs/scaling.md). The shape is the one with the least
+//    region surface for the box, or domain.grid.
+//    Slabs are the grid with P regions along one axis. The cuts are plain data per axis, so a
+//    load balancer can move them at run time.
 //  - "metis": the box is cut into cells at least one interaction range wide and every cell
 //    is given to a rank by a METIS partition of the cell graph, weighted by cost when
 //    balancing. Any shape of region, e.g. a crowded upstream channel split along y too.
 // Everything else asks only owner(x), ranks_near(x, reach) and local_box(), so the halo
-// exchange and the neighbour build are the same code for both.
+// exchange and the neighbour build are the same code for all three.
 // Also the box geometry every rank agrees on: bounds, boundary types, and the Lees-Edwards
 // shear state (x shifted by a growing offset across the y boundaries) when a scene has one.
 #include <array>
@@ -32,11 +37,15 @@ struct ShearBoundary {
 struct Decomposition {
   MPI_Comm comm = MPI_COMM_WORLD;
   int rank = 0, nranks = 1;
-  int axis = 0;
+  int axis = 0;  // slabs: the axis cut
   int dims = 3;  // 2 in planar scenes: z is neither imaged nor cut
   Vec3 lo, hi, length;
   std::array<Boundary, 3> boundary{};
-  std::vector<double> cuts;  // nranks + 1 entries, cuts.front() = lo[axis], cuts.back() = hi[axis]
+  // Regions per axis (slabs: nranks along `axis`, 1 along the others), this rank's place in
+  // the grid (rank = (k * grid[1] + j) * grid[0] + i), and the cuts along each axis:
+  // grid[d] + 1 entries, from lo[d] to hi[d].
+  std::array<int, 3> grid{1, 1, 1}, place{0, 0, 0};
+  std::array<std::vector<double>, 3> cuts;
   ShearBoundary shear;
   // Modified Lees-Edwards boundaries (Config::modified_lees_edwards): across x, LE1 (copy 0)
   // is open and sees LE2 (copy 1) beyond it, and LE2 feeds what crosses into LE1.
@@ -48,8 +57,6 @@ struct Decomposition {
 
   Decomposition(const Config& cfg, MPI_Comm comm);
 
-  double slab_lo() const { return cuts[rank]; }
-  double slab_hi() const { return cuts[rank + 1]; }
   bool cells() const { return !cell_owner.empty(); }
   // Switches to cell ownership with cells at least `range` wide, partitioned with unit weights.
   void use_cells(double range);
@@ -62,9 +69,11 @@ struct Decomposition {
   // slab: no other rank and no periodic image can be within reach of it (false under cell
   // ownership, where the question is not asked this way).
   bool deep_inside(const Vec3& x, double reach) const {
-    if (cells() || x[axis] - reach < cuts[rank] || x[axis] + reach >= cuts[rank + 1]) return false;
-    for (int d = 0; d < dims; ++d)
+    if (cells()) return false;
+    for (int d = 0; d < dims; ++d) {
       if (x[d] < lo[d] + reach || x[d] >= hi[d] - reach) return false;
+      if (grid[d] > 1 && (x[d] - reach < cuts[d][place[d]] || x[d] + reach >= cuts[d][place[d] + 1])) return false;
+    }
     return true;
   }
   // Bounding box of this rank's region (the whole box when it owns nothing).
@@ -76,6 +85,10 @@ struct Decomposition {
   // Max over mean of the per-rank cost, without moving anything. Collective.
   double imbalance(double my_cost) const;
   bool periodic(int d) const { return boundary[d] == Boundary::Periodic; }
+
+ private:
+  // The region index along axis d holding coordinate v (clamped into the box).
+  int region_along(int d, double v) const;
 };
 
 }  // namespace cassini

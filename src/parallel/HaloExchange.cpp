@@ -78,10 +78,9 @@ void HaloExchange::exchange(std::vector<std::vector<double>>& out, std::vector<d
 }
 
 namespace {
-// Crossed the x boundary, not the sheared one (a sheared crossing keeps a particle in its copy).
-bool crossed_x_only(const Decomposition& dom, const Vec3& x) {
-  return x[1] >= dom.lo[1] && x[1] < dom.hi[1] && (x[0] < dom.lo[0] || x[0] >= dom.hi[0]);
-}
+// Crossed an x face (before the sheared boundary's shift: a particle that left through a
+// corner crossed both; a sheared crossing alone keeps a particle in its copy).
+bool crossed_x(const Decomposition& dom, const Vec3& x) { return x[0] < dom.lo[0] || x[0] >= dom.hi[0]; }
 // A particle that crossed x did so with the shear flow gamma_dot y (out through hi where the flow
 // is positive, through lo where it is negative) or against it.
 bool crossed_against_flow(const Decomposition& dom, const Vec3& x) {
@@ -99,7 +98,7 @@ void HaloExchange::feed(ParticleStore& p) {
   std::vector<std::int64_t> sources;
   std::vector<std::size_t> slots;
   for (std::size_t i = 0; i < p.nlocal; ++i)
-    if (p.le_copy[i] == 1 && crossed_x_only(dom_, p.x[i]) && !crossed_against_flow(dom_, p.x[i])) {
+    if (p.le_copy[i] == 1 && crossed_x(dom_, p.x[i]) && !crossed_against_flow(dom_, p.x[i])) {
       sources.push_back(p.id[i]);
       slots.push_back(i);
     }
@@ -145,7 +144,7 @@ void HaloExchange::migrate(ParticleStore& p, PairHistory& history) {
   const std::size_t entered = dom_.fed_x ? p.find_column(kEnteredColumn) : ParticleStore::kNoColumn;
   for (std::size_t i = p.nlocal; i-- > 0;) {
     Vec3& x = p.x[i];
-    const bool left_le1 = dom_.fed_x && p.le_copy[i] == 0 && crossed_x_only(dom_, x);
+    const bool left_le1 = dom_.fed_x && p.le_copy[i] == 0 && crossed_x(dom_, x);
     const bool drain = left_le1 && !crossed_against_flow(dom_, x);  // out with the flow: removed
     if (left_le1 && !drain) {  // out against it: back in through the opposite face (the wrap below)
       ++returned;
@@ -178,13 +177,9 @@ void HaloExchange::migrate(ParticleStore& p, PairHistory& history) {
         gone = true;
       }
     }
-    // An LE1 particle that wrapped through y next to its inflow face: beyond that face lie
-    // LE2's inflow images, which it could not see from across y (there LE1's images repeat
-    // along x). Simulation::remove_stillborn takes it out if it landed on one.
-    if (jump != 0 && dom_.fed_x && p.le_copy[i] == 0) {
-      const double flow = dom_.shear.rate * x[1];
-      if ((flow > 0 && x[0] < dom_.lo[0] + range_) || (flow < 0 && x[0] >= dom_.hi[0] - range_)) *p.column(entered, i) = 3;
-    }
+    // An LE1 particle that wrapped through y may land next to what it could not see from
+    // across y (unseen_after_wrap); Simulation::remove_stillborn takes it out if it landed on it.
+    if (jump != 0 && dom_.fed_x && p.le_copy[i] == 0 && *p.column(entered, i) == 0) *p.column(entered, i) = 3;
     const int dest = dom_.owner(x);
     if (gone || dest != dom_.rank) {
       if (!gone) {

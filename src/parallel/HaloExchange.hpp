@@ -8,6 +8,7 @@
 // which the ranks facing a slab across the sheared boundary change as the offset grows.
 // What was sent is remembered as (particle, image) pairs, so each step only positions and
 // velocities are re-sent, with the image shift recomputed from the current shear offset.
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -55,21 +56,35 @@ class HaloExchange {
   // new neighbour list shows the overlap): nothing there saw them coming. A clone taken out
   // counts here; a returned one counts as drained.
   std::int64_t stillborn = 0;
-  // LE1 particles that wrapped through the sheared y boundary into a corner of LE1's inflow
-  // face and landed on an LE2 inflow image, which nothing across y showed them (LE1's images
-  // repeat along x across y; LE1 itself does not across x: the two meet only at these
-  // corners). Taken out as a returned one is (Simulation::remove_stillborn), counted here and
-  // as drained.
+  // LE1 particles that wrapped through the sheared y boundary and landed on material they
+  // could not see before (unseen_after_wrap), taken out as a returned one is
+  // (Simulation::remove_stillborn): counted here and as drained.
   std::int64_t cornered = 0;
-  // Ghost j is an image of an LE2 particle beyond LE1's inflow face (LE1 has no other
-  // unsheared images outside its x range). Valid at the ghost build.
-  bool feed_image(const ParticleStore& p, std::size_t j) const {
-    return j >= p.nlocal && p.copies && p.le_copy[j] == 0 && sheared_image(p, j) == 0 &&
-           (p.x[j][0] < dom_.lo[0] || p.x[j][0] >= dom_.hi[0]);
+  // Whether ghost j was out of sight of owned LE1 particle i before i wrapped through y at this
+  // rebuild. Across y, LE1's images repeat along x (each copy is a sheared box); across x LE1
+  // has none (beyond its inflow face lie LE2's inflow images, beyond its outflow face nothing).
+  // The two meet where an x face meets a y face. Out of sight were:
+  //  - LE2's inflow images (j beyond an x face, not a sheared image): from across y, LE1's own
+  //    images stood in their place;
+  //  - images of LE1 particles near the opposite x face: taken back across y, i and j's owner
+  //    are a box length apart (i was near one x face, the owner near the other), while across
+  //    y they are neighbours. E.g. i leaves through the bottom face at its outflow corner
+  //    while a clone enters at the inflow corner of the same face.
+  // Valid at the ghost build.
+  bool unseen_after_wrap(const ParticleStore& p, std::size_t i, std::size_t j) const {
+    if (j < p.nlocal || !p.copies || p.le_copy[j] != 0) return false;
+    const double lo = dom_.lo[0], L = dom_.length[0];
+    const int k = sheared_image(p, j);
+    if (k == 0) return p.x[j][0] < lo || p.x[j][0] >= dom_.hi[0];
+    auto back = [&](double x) {  // across y, into the box
+      x -= k * (dom_.shear.offset - shear_base_);
+      return x - L * std::floor((x - lo) / L);
+    };
+    return std::abs(back(p.x[i][0]) - back(p.x[j][0])) > 0.5 * L;
   }
   // Per-particle columns of these boundaries (ParticleStore::declare, in snapshots):
   //  - kEnteredColumn: 1 for a clone made at this rebuild's migration, 2 for a returned particle,
-  //    3 for one that wrapped through y next to the inflow face (`cornered`), else 0 (read by
+  //    3 for an LE1 particle that wrapped through y (`cornered`), else 0 (read by
   //    Simulation::remove_stillborn, cleared after it);
   //  - kInflowColumn: 1 while an LE2 particle is shown to LE1 beyond LE1's inflow face.
   static constexpr const char* kEnteredColumn = "le_entered";
