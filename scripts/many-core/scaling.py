@@ -23,10 +23,12 @@ does not fit in what is left of SCALING_BUDGET_S (seconds since this script star
   H. propeller weak scaling (30k particles per rank), multi-rate and plain
   I. the 2M gas at 8 and 16 ranks, both codes (peak memory per rank)
   P. a 120,000-particle propeller patch (cases/propeller 4x longer), 0.1 orbit, 1-16 ranks
-SCALING_ORDER sets the order (default CABEDFGHIP); SCALING_ONLY the plans run.
+  R. cassini's grid of regions (domain.decomposition = "grid": 4 x 1 x 2 at 8, 4 x 1 x 4 at 16)
+     on A's and E's scenes at 4, 8, 16 ranks (the halo that slabs cannot shrink: issue 43)
+SCALING_ORDER sets the order (default CARBEDFGHIP); SCALING_ONLY the plans run.
 Environment knobs: SCALING_BUDGET_S (default 330), SCALING_MAX_RANKS (default: CPU count),
 SCALING_SCALE (multiplies every step count / simulated time; default 1), SCALING_ONLY (plan
-letters, default ABCDEFGHIP), SCALING_WORK (run directories, default /tmp/scaling-runs).
+letters, default ABCDEFGHIPR), SCALING_WORK (run directories, default /tmp/scaling-runs).
 """
 import json, os, re, shutil, signal, subprocess, sys, time
 
@@ -36,7 +38,7 @@ OUT = os.environ["OUT"]
 BUDGET = float(os.environ.get("SCALING_BUDGET_S", "330"))
 MAXRANKS = int(os.environ.get("SCALING_MAX_RANKS", str(os.cpu_count() or 1)))
 SCALE = float(os.environ.get("SCALING_SCALE", "1"))
-ONLY = set(os.environ.get("SCALING_ONLY", "ABCDEFGHIP").replace(",", ""))
+ONLY = set(os.environ.get("SCALING_ONLY", "ABCDEFGHIPR").replace(",", ""))
 WORK = os.environ.get("SCALING_WORK", "/tmp/scaling-runs")
 LIB = os.path.join(CB, "usr/lib/x86_64-linux-gnu")
 BIN = os.path.join(CB, "usr/bin")
@@ -366,11 +368,11 @@ def gas_strong(plan, friction, steps, prior_c, prior_l, ranks_list=(1, 2, 4, 8, 
     dims = (80, 50, 50)
     scene = f"gas N=200000 mu={0.5 * friction}"
     for ranks in [p for p in ranks_list if p <= MAXRANKS]:
-        rdir = os.path.join(WORK, f"{plan}-c{ranks}")
+        rdir = os.path.join(WORK, f"{plan}-c{ranks}-f{friction}")
         n = gas_case(rdir, dims, friction, steps)
         attempt(plan, scene, "cassini", ranks, prior_c,
                 lambda t: do_cassini(plan, scene, rdir, os.path.join(rdir, "case.toml"), ranks, sets, t, n, 0.5 * friction,
-                                     f"{plan}-cassini-{ranks}"))
+                                     f"{plan}-cassini-{ranks}-f{friction}"))
         if lammps:
             rdir_l = os.path.join(WORK, f"{plan}-l{ranks}")
             attempt(plan, scene, "lammps", ranks, prior_l,
@@ -431,7 +433,7 @@ def main():
     # Step counts and simulated times; the priors (1-rank wall seconds) come from the home
     # machine and only decide skips until this machine's own 1-rank run replaces them.
     gas_steps = max(int(round(600 * SCALE)), 10)
-    for plan in os.environ.get("SCALING_ORDER", "CABEDFGHIP"):
+    for plan in os.environ.get("SCALING_ORDER", "CARBEDFGHIP"):
         if plan in ONLY:
             PLANS[plan](gas_steps)
     write_csv()
@@ -481,6 +483,13 @@ def plan_F(gas_steps):
     if True:
         gas_strong("F", 1, gas_steps, EST.get(("gas N=200000 mu=0.5", "cassini"), 9.0), 0, (4, 8, 16),
                    ("domain.decomposition=metis",), lammps=False)
+
+
+def plan_R(gas_steps):
+    for friction in (1, 0):
+        scene = f"gas N=200000 mu={0.5 * friction}"
+        gas_strong("R", friction, gas_steps, EST.get((scene, "cassini"), 9.0), 0, (4, 8, 16),
+                   ("domain.decomposition=grid",), lammps=False)
 
 
 def plan_G(gas_steps):
@@ -539,7 +548,7 @@ def plan_P(gas_steps):
     ring("P", "propeller-120k", "propeller", (1, 2, 4, 8, 16), sets, 20.0, 120000)
 
 
-PLANS = {k: globals()["plan_" + k] for k in "ABCDEFGHIP"}
+PLANS = {k: globals()["plan_" + k] for k in "ABCDEFGHIPR"}
 
 
 if __name__ == "__main__":    sys.exit(main())
