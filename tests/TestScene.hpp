@@ -59,6 +59,33 @@ n_c = 50
 end = 1.0e6
 )";
 
+// A self-gravitating 3D ring patch (200 m, 32 x 32 x 16 mesh), no particles placed: the
+// self-gravity tests' scene.
+inline const char* kSelfGravityPatch = R"(
+seed = 11
+modules = ["contact", "hill", "self-gravity"]
+[domain]
+lo = [-100.0, -100.0, -16.0]
+hi = [100.0, 100.0, 16.0]
+boundary = ["periodic", "lees_edwards", "open"]
+[hill]
+form = "linear"
+saturn_mass = 5.68e26
+orbit_radius = 1.3e8
+[self_gravity]
+grid = [32, 32, 16]
+[[species]]
+density = 400.0
+radius = 1.0
+t_c = 50.0
+e = 0.5
+[particles]
+init = "none"
+[time]
+dt = 2.0
+end = 1.0e6
+)";
+
 // The scene with the first species' constant e replaced by the Bridges law at v_c (m/s).
 inline std::string with_bridges(std::string text, double v_c) {
   const auto at = text.find("\ne = ");

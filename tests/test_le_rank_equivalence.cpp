@@ -162,36 +162,10 @@ TEST(LeesEdwardsRanks, SelfGravityGrid) {
   // A self-gravitating 3D ring patch (tests/test_self_gravity.cpp's, contacts, the short range,
   // a solve every 2 steps) on a 2 x 2 grid: each rank's mesh box is a block of rows and
   // columns, sheared; 300 steps.
-  const char* patch = R"(
-seed = 11
-modules = ["contact", "hill", "self-gravity"]
-[domain]
-lo = [-100.0, -100.0, -16.0]
-hi = [100.0, 100.0, 16.0]
-boundary = ["periodic", "lees_edwards", "open"]
-[hill]
-form = "linear"
-saturn_mass = 5.68e26
-orbit_radius = 1.3e8
-[self_gravity]
-grid = [32, 32, 16]
-split = 3.0
-every = 2
-[[species]]
-density = 400.0
-radius = 1.0
-t_c = 50.0
-e = 0.5
-[particles]
-init = "random"
-count = 600
-shear_flow = true
-velocity_sigma = 0.001
-[time]
-dt = 2.0
-end = 1.0e6
-)";
-  compare_grid_2x2(patch, {}, 300);
+  compare_grid_2x2(kSelfGravityPatch,
+                   {"particles.init=\"random\"", "particles.count=600", "particles.shear_flow=true",
+                    "particles.velocity_sigma=0.001", "self_gravity.split=3.0", "self_gravity.every=2"},
+                   300);
 }
 
 TEST(LeesEdwardsRanks, PropellerPatchMultiRate) {

@@ -22,30 +22,7 @@ constexpr double G = kGravitationalConstant;
 
 // A 200 m x 200 m ring patch in the Hill frame (the shear gives the Lees-Edwards images), 3D
 // with z in [-16, 16] m and a 32 x 32 x 16 mesh (h = 6.25 m in the plane, 2 m in z).
-const char* kPatch = R"(
-seed = 11
-modules = ["contact", "hill", "self-gravity"]
-[domain]
-lo = [-100.0, -100.0, -16.0]
-hi = [100.0, 100.0, 16.0]
-boundary = ["periodic", "lees_edwards", "open"]
-[hill]
-form = "linear"
-saturn_mass = 5.68e26
-orbit_radius = 1.3e8
-[self_gravity]
-grid = [32, 32, 16]
-[[species]]
-density = 400.0
-radius = 1.0
-t_c = 50.0
-e = 0.5
-[particles]
-init = "none"
-[time]
-dt = 2.0
-end = 1.0e6
-)";
+const char* kPatch = kSelfGravityPatch;
 
 // The same box and mesh without the Hill frame: x and y periodic (no shear), so that a pair's
 // orbit and infall have closed forms (Newton plus the square lattice of images).
