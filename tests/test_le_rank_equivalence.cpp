@@ -145,17 +145,17 @@ TEST(LeesEdwardsRanks, FrictionalShearedGasGridRebalanced) {
   // axis at every fifth rebuild; the automatic shape on 1-4 ranks (slabs here) as well.
   const std::vector<std::string> square = {"domain.lo=[0.0, -0.01, 0.0]", "domain.hi=[0.02, 0.01, 0.01]",
                                            "domain.balance_every=5"};
-  compare_grid_2x2(kShearedGas, square, 3000);
+  compare_grid_2x2(kShearedGas, square, 2000);
   std::vector<std::string> automatic = square;
   automatic.push_back("domain.decomposition=\"grid\"");
-  compare_rank_counts(kShearedGas, automatic, 1000, 0.0);
+  compare_rank_counts(kShearedGas, automatic, 500, 0.0);
 }
 
 TEST(LeesEdwardsRanks, PropellerPatchModifiedBoundariesMultiRateGrid) {
   // The fed patch on a 2 x 2 grid: clones, drains and inflow images cross region corners.
   compare_grid_2x2(kPropellerPatch, {"domain.modified_lees_edwards=true", "time.integrator=\"multirate\"",
                                      "time.long_step=20.0"},
-                   3000);
+                   2500);
 }
 
 TEST(LeesEdwardsRanks, SelfGravityGrid) {
