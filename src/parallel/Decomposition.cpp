@@ -173,6 +173,13 @@ int Decomposition::owner(const Vec3& x) const {
 void Decomposition::ranks_near(const Vec3& x, double reach, std::vector<int>& out) const {
   out.clear();
   if (!cells()) {
+    bool mine = true;  // within this rank's own region, `reach` from its cuts: most asks
+    for (int d = 0; d < 3; ++d)
+      if (grid[d] > 1 && (x[d] - reach < cuts[d][place[d]] || x[d] + reach >= cuts[d][place[d] + 1])) mine = false;
+    if (mine) {
+      out.push_back(rank);
+      return;
+    }
     // Along each axis the regions whose extent widened by `reach` holds x; every combination.
     int first[3], last[3];
     for (int d = 0; d < 3; ++d) {
