@@ -156,7 +156,7 @@ void HaloExchange::migrate(ParticleStore& p, PairHistory& history) {
       shear_energy -= 0.5 * p.mass[i] * p.v[i].squaredNorm();
     }
     double jump = 0;
-    if (dom_.shear.enabled) {  // crossing the sheared boundary: shift x, jump vx
+    if (dom_.shear.enabled && !drain) {  // crossing the sheared boundary: shift x, jump vx (not for one leaving)
       const double off = dom_.shear.wrapped(L[0]), dv = dom_.shear.rate * L[1];
       if (x[1] >= dom_.hi[1]) { x[1] -= L[1]; x[0] -= off; jump = -dv; }
       else if (x[1] < dom_.lo[1]) { x[1] += L[1]; x[0] += off; jump = dv; }
