@@ -43,6 +43,10 @@ int MPI_Allreduce(const void* s, void* r, int n, MPI_Datatype t, MPI_Op op, MPI_
   add(Allreduce, bytes(n, t));
   return PMPI_Allreduce(s, r, n, t, op, c);
 }
+int MPI_Iallreduce(const void* s, void* r, int n, MPI_Datatype t, MPI_Op op, MPI_Comm c, MPI_Request* req) {
+  add(Allreduce, bytes(n, t));
+  return PMPI_Iallreduce(s, r, n, t, op, c, req);
+}
 int MPI_Reduce(const void* s, void* r, int n, MPI_Datatype t, MPI_Op op, int root, MPI_Comm c) {
   add(Reduce, bytes(n, t));
   return PMPI_Reduce(s, r, n, t, op, root, c);

@@ -19,7 +19,7 @@ struct Counts {
                                             calls[Allgather] + calls[Alltoall] + calls[Gather] + calls[Scan]; }
 };
 
-Counts now();  // since the process started (v-variants counted with their plain kind)
+Counts now();  // since the process started (v- and non-blocking variants counted with their plain kind)
 inline std::int64_t collective_calls = 0;  // all collective kinds, for StageTimers' per-stage counts
 
 }  // namespace cassini::mpi_counters
