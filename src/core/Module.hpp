@@ -63,6 +63,10 @@ class Module {
   // numbers with the same value on every rank. Written into every snapshot; a restarted
   // run finds them in Simulation::restart_state when setup() is called.
   virtual void save_state(std::vector<std::pair<std::string, double>>&) const {}
+  // Load balancing (domain.balance_every), at a balancing rebuild: scales each owned particle's
+  // cost (1 + its neighbour-list entries, a plain step's work on it) by how often this module
+  // worked on it since the last balancing (a multi-rate integrator: mostly on contact steps).
+  virtual void weigh(Simulation&, std::vector<double>& /*cost*/) {}
   // Contact history of this rank's owned contacts, as rows of the columns the module declared in
   // Simulation::history (PairHistory.hpp); appended to `out`. Snapshots write it, restarts bring
   // it back into Simulation::history before the first rebuild.

@@ -104,6 +104,7 @@ void Simulation::rebuild() {
     const bool listed = neighbors.start.size() == particles.nlocal + 1;
     for (std::size_t i = 0; i < particles.nlocal; ++i)
       if (listed) cost[i] += neighbors.start[i + 1] - neighbors.start[i];
+    for (auto& m : modules) m->weigh(*this, cost);
     record.imbalance = domain.balance(where, cost);
   }
   if (!incoming.empty()) {

@@ -58,6 +58,7 @@ ModuleKind MultiRateHill::kind() {
   auto make = [](Simulation& sim) {
     auto m = std::make_unique<MultiRateHill>(sim.cfg, sim.dt);
     m->mode_column_ = sim.particles.declare("multirate_mode", 1, ParticleStore::Ghosts::carry);  // ghosts' modes decide who is awake
+    m->work_column_ = sim.particles.declare("multirate_work", 1, ParticleStore::Ghosts::none);
     return m;
   };
   return {"multirate", {"hill"}, read, make};
@@ -175,7 +176,10 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   // Ghosts as their owners are now (the last step's kicks and moves came after its update), so
   // that each side of a pair sees the same numbers whatever the rank count.
   sim.halo.update_ghosts(p);
-  for (std::size_t i = 0; i < p.nlocal; ++i) set_mode(p, i, needs_contact_steps(sim, i) ? kContact : kFree);
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    set_mode(p, i, needs_contact_steps(sim, i) ? kContact : kFree);
+    *p.column(work_column_, i) += 1;
+  }
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (mode_of(p, i) == kFree || gravity_) p.v[i] += (0.5 * delta_) * slow_acceleration(p, i, mode_of(p, i) == kFree);
   in_long_step_ = true;
@@ -307,6 +311,7 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
   const Epicycle step(omega_, omega_z_, dt, planar);
   for (const std::uint32_t i : drifting_) {
     step.advance(X[i], V[i]);
+    *p.column(work_column_, i) += 1;
     const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
     m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
     u2 = std::max(u2, speed2(i));
@@ -326,6 +331,8 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
   if (p.rotation)
     for (const std::uint32_t i : contact_) p.omega[i] += (h * p.inv_inertia[i]) * p.torque[i];
   contact_particle_steps += static_cast<long long>(contact_.size());
+  for (const std::uint32_t i : contact_) *p.column(work_column_, i) += 1;
+  stepped_particle_steps += static_cast<long long>(contact_.size() + drifting_.size());
   free_particle_steps += static_cast<long long>(p.nlocal - contact_.size());
 }
 
@@ -343,7 +350,9 @@ void MultiRateHill::pre_force(Simulation& sim) {
   woken_.clear();
   const double tau = sim.time - t_ref_;
   const Epicycle now(omega_, omega_z_, tau, planar_);
+  stepped_particle_steps += static_cast<long long>(watch_.size());
   for (const std::uint32_t j : watch_) {
+    *p.column(work_column_, j) += 1;
     Vec3 xj = p.x[j], vj = p.v[j];
     if (mode_of(p, j) == kFree) now.advance(xj, vj);
     for (std::uint32_t k = nl.start[j]; k < nl.start[j + 1]; ++k) {
@@ -423,17 +432,31 @@ void MultiRateHill::final_integrate(Simulation& sim) {
   publish(sim);
 }
 
+void MultiRateHill::weigh(Simulation& sim, std::vector<double>& cost) {
+  ParticleStore& p = sim.particles;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    double& work = *p.column(work_column_, i);
+    cost[i] *= 1 + work;
+    work = 0;
+  }
+}
+
 void MultiRateHill::publish(Simulation& sim) const {
-  double local[5] = {double(contact_particle_steps), double(free_particle_steps), double(wakes), double(wakes_touching),
-                     double(missed)};
-  double g[5];
-  MPI_Allreduce(local, g, 5, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  double local[6] = {double(contact_particle_steps), double(free_particle_steps), double(wakes), double(wakes_touching),
+                     double(missed), double(stepped_particle_steps)};
+  double g[6];
+  MPI_Allreduce(local, g, 6, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
+  // The contact steps' work per rank (particles stepped, drifted or watched), largest over mean:
+  // what the regions' balance must even out.
+  double most = local[5];
+  if (sim.domain.nranks > 1) MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
   std::ostringstream os;
   os.precision(6);
   os << "{\"long_step\": " << long_step_ << ", \"steps_per_long_step\": " << substeps_
      << ", \"contact_step_fraction\": " << (g[0] + g[1] > 0 ? g[0] / (g[0] + g[1]) : 0.0)
      << ", \"wakes\": " << std::llround(g[2]) << ", \"wakes_touching\": " << std::llround(g[3])
-     << ", \"missed_moonlet_contacts\": " << std::llround(g[4]) << "}";
+     << ", \"missed_moonlet_contacts\": " << std::llround(g[4])
+     << ", \"step_work_imbalance\": " << (g[5] > 0 ? most / (g[5] / sim.domain.nranks) : 1.0) << "}";
   sim.set_result("multirate", os.str());
 }
 

@@ -71,6 +71,10 @@ class MultiRateHill : public Module {
   void final_integrate(Simulation& sim) override;
   // Coriolis as a body force (stress bookkeeping), as the plain integrator reports it.
   void add_body_forces(const Simulation& sim, std::vector<Vec3>& F) const override;
+  // A particle costs a plain step's work at each long step's start (classification) and at each
+  // of its contact steps, nothing in between: the cost is scaled by that count (the moonlet's
+  // neighbourhood, where the contacts are, gets narrower regions).
+  void weigh(Simulation& sim, std::vector<double>& cost) override;
 
   // The exact linear-Hill (epicycle) map over time t, in place. Public for the tests.
   struct Epicycle {
@@ -99,6 +103,7 @@ class MultiRateHill : public Module {
   // Counts on this rank since the run started.
   long long contact_particle_steps = 0;  // particle-steps on contact steps
   long long free_particle_steps = 0;
+  long long stepped_particle_steps = 0;  // particles stepped, drifted or watched at contact steps
   long wakes = 0;          // free particles that joined the contact steps mid long step
   long wakes_touching = 0; // ... of those, already overlapping (woken as the plain scheme sees it)
   long missed = 0;         // free particles found touching the moonlet at a long step's end (0 expected)
@@ -111,6 +116,7 @@ class MultiRateHill : public Module {
   // A particle's mode: a column this module declares (ParticleStore::declare), so it migrates,
   // reaches the ghosts every step and goes into snapshots with no code elsewhere.
   std::size_t mode_column_ = 0;
+  std::size_t work_column_ = 0;  // long steps begun + contact steps taken since the last balancing
   std::uint8_t mode_of(const ParticleStore& p, std::size_t i) const {
     return static_cast<std::uint8_t>(p.column(mode_column_, i)[0]);
   }
