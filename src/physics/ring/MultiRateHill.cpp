@@ -442,14 +442,18 @@ void MultiRateHill::weigh(Simulation& sim, std::vector<double>& cost) {
 }
 
 void MultiRateHill::publish(Simulation& sim) const {
-  double local[6] = {double(contact_particle_steps), double(free_particle_steps), double(wakes), double(wakes_touching),
-                     double(missed), double(stepped_particle_steps)};
-  double g[6];
-  MPI_Allreduce(local, g, 6, MPI_DOUBLE, MPI_SUM, sim.domain.comm);
-  // The contact steps' work per rank (particles stepped, drifted or watched), largest over mean:
-  // what the regions' balance must even out.
-  double most = local[5];
-  if (sim.domain.nranks > 1) MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
+  // One collective: every rank's counts (whole numbers, so the sums are exact in any order),
+  // summed here; the contact steps' work per rank (particles stepped, drifted or watched),
+  // largest over mean, is what the regions' balance must even out.
+  const double local[6] = {double(contact_particle_steps), double(free_particle_steps), double(wakes),
+                           double(wakes_touching), double(missed), double(stepped_particle_steps)};
+  std::vector<double> all(6 * sim.domain.nranks);
+  MPI_Allgather(local, 6, MPI_DOUBLE, all.data(), 6, MPI_DOUBLE, sim.domain.comm);
+  double g[6] = {0, 0, 0, 0, 0, 0}, most = 0;
+  for (int r = 0; r < sim.domain.nranks; ++r) {
+    for (int k = 0; k < 6; ++k) g[k] += all[6 * r + k];
+    most = std::max(most, all[6 * r + 5]);
+  }
   std::ostringstream os;
   os.precision(6);
   os << "{\"long_step\": " << long_step_ << ", \"steps_per_long_step\": " << substeps_
