@@ -61,11 +61,11 @@ def orbit_means(rows, key):
     return out
 
 
-def window_start(runs, min_window):
-    """The earliest whole orbit t_s >= 1 meeting the criterion (module docstring), or None."""
+def window_start(runs, min_window, first=1):
+    """The earliest whole orbit t_s >= first meeting the criterion (module docstring), or None."""
     series = [orbit_means(rows, "Q") for rows in runs]
     end = min(max(s) for s in series) + 1  # orbits every run completed
-    for ts in range(1, end - min_window + 1):
+    for ts in range(first, end - min_window + 1):
         xs = np.concatenate([np.arange(ts, end) + 0.5 for _ in series])
         ys = np.concatenate([[s[k] for k in range(ts, end)] for s in series])
         fit, cov = np.polyfit(xs, ys, 1, cov=True) if len(xs) > 3 else (np.polyfit(xs, ys, 1), None)
@@ -80,9 +80,9 @@ def window_start(runs, min_window):
     return None, end
 
 
-def group_table(name, runs_dirs, min_window):
+def group_table(name, runs_dirs, min_window, first=1):
     runs = [rows_of(d) for d in runs_dirs]
-    ts, end = window_start(runs, min_window)
+    ts, end = window_start(runs, min_window, first)
     out = dict(name=name, runs=runs_dirs, particles=runs[0][-1]["particles"], critical=runs[0][-1]["critical"],
                window=[ts, end] if ts is not None else None)
     cpu = []
@@ -116,6 +116,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("groups", nargs="+", help="NAME=RUN[,RUN...]")
     ap.add_argument("--min-window", type=int, default=3, help="orbits the stationary window must hold at least")
+    ap.add_argument("--from", dest="first", type=int, default=1,
+                    help="the window starts at this orbit or later (one run's slope error, widened by the rise's "
+                         "curvature, can pass the criterion while Q still rises: read the orbit means)")
     ap.add_argument("--json", help="write the table here")
     a = ap.parse_args()
     table = []
@@ -123,7 +126,7 @@ def main():
         if "=" not in g:
             sys.exit(f"gravity_wakes_study.py: '{g}' is not NAME=RUN[,RUN...]")
         name, runs = g.split("=", 1)
-        table.append(group_table(name, runs.split(","), a.min_window))
+        table.append(group_table(name, runs.split(","), a.min_window, a.first))
     print(f"{'group':22s} {'runs':>4} {'N':>6} {'window':>8} {'lambda m':>13} {'/crit':>5} {'pitch deg':>11} {'Q':>11} "
           f"{'sigma x,y,z mm/s':>24} {'H m':>11} {'CPU-s/orbit':>11}")
     for t in table:
