@@ -297,16 +297,24 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
     const double ux = V[i][0] - rate * X[i][1];
     return ux * ux + V[i][1] * V[i][1] + V[i][2] * V[i][2];
   };
+  // The new state is formed in scalars and stored once: a vector load of components just
+  // stored one by one (the velocity, or a Vec3 built on the stack) stalls, as store forwarding
+  // fails; it was the loop's largest cost.
   for (const std::uint32_t i : contact_) {  // velocity Verlet's first half, as VelocityVerlet
     const double k = h * IM[i];
-    const double vx = V[i][0] + k * F[i][0], vy = V[i][1] + k * F[i][1];
-    V[i][0] = c * vx + s * vy;
-    V[i][1] = c * vy - s * vx;
-    V[i][2] = planar ? 0.0 : V[i][2] + k * F[i][2];
-    X[i] += dt * V[i];
-    const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
+    const double wx = V[i][0] + k * F[i][0], wy = V[i][1] + k * F[i][1];
+    const double vx = c * wx + s * wy, vy = c * wy - s * wx, vz = planar ? 0.0 : V[i][2] + k * F[i][2];
+    const double x = X[i][0] + dt * vx, y = X[i][1] + dt * vy, z = X[i][2] + dt * vz;
+    V[i][0] = vx;
+    V[i][1] = vy;
+    V[i][2] = vz;
+    X[i][0] = x;
+    X[i][1] = y;
+    X[i][2] = z;
+    const double dx = x - XB[i][0] - stream * XB[i][1], dy = y - XB[i][1], dz = z - XB[i][2];
+    const double ux = vx - rate * y;
     m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
-    u2 = std::max(u2, speed2(i));
+    u2 = std::max(u2, ux * ux + vy * vy + vz * vz);
   }
   const Epicycle step(omega_, omega_z_, dt, planar);
   for (const std::uint32_t i : drifting_) {
