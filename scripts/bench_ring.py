@@ -1,7 +1,11 @@
-"""Drives scripts/bench-ring: CPU per orbit of the ring patch in cassini (plain and multi-rate
-schemes, one rank) and in REBOUND (../shared/peers/rebound/run.sh), one after the other.
+"""Drives scripts/bench-ring: CPU per orbit of the ring patch, one rank, cassini and REBOUND one
+after the other, two scenes, each the same in both codes:
+  - the ring section (cases/ring-section at N_c = 10, no moonlet) against REBOUND's patch
+    (../shared/peers/rebound/run.sh, started as the case files: RING_S0=0 RING_DISPFRAC=0.01);
+  - the propeller (cases/propeller, plain and multi-rate schemes) against REBOUND's patch with the
+    same moonlet (scripts/peers/rebound_propeller.c: its gravity and a hard fixed surface).
 CASSINI_BASE=/path/to/older/cassini also times that binary in the same repeats (a change's cost)."""
-import os, re, resource, statistics, subprocess, sys, tempfile
+import atexit, os, re, resource, shutil, statistics, subprocess, sys, tempfile
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
 from cassini_tools import Hill, Run
 
@@ -34,14 +38,45 @@ def cassini(case, orbits, overrides, binary=os.path.join(ROOT, "build/cassini"))
     return cpu / orbits, summary
 
 
-def rebound(orbits, n, lx, ly):
+def rebound(orbits, n, lx, ly, case_start=False):
     src = os.environ.get("REBOUND_SRC")
     if not src:
         return None
     env = dict(os.environ, RING_ORBITS=str(orbits), RING_N=str(n), RING_LX=str(lx), RING_LY=str(ly))
+    if case_start:  # the case files' start: 1 % of the local shear speed
+        env.update(RING_S0="0", RING_DISPFRAC="0.01")
     out = subprocess.run(["bash", PEER], check=True, capture_output=True, text=True, env=env).stdout
     m = re.search(r"rebound_cpu_per_orbit:\s*([0-9.eE+-]+)", out)
     return float(m.group(1)) if m else None
+
+
+_propeller_driver = None
+
+
+def rebound_propeller(orbits):
+    """CPU seconds per orbit of REBOUND's propeller patch, and its RESULT line's fields."""
+    global _propeller_driver
+    src = os.environ.get("REBOUND_SRC")
+    if not src:
+        return None, {}
+    if _propeller_driver is None:  # librebound and the driver, built once in a scratch directory
+        work = tempfile.mkdtemp(prefix="rebound-propeller.")
+        atexit.register(shutil.rmtree, work, True)
+        lib = os.path.join(work, "rebound")
+        os.makedirs(lib)
+        if os.path.exists(os.path.join(src, "src", "rebound.h")):
+            subprocess.run(["cp", "-r", os.path.join(src, "src"), os.path.join(src, "Makefile"), lib], check=True)
+        else:
+            subprocess.run(f"git --git-dir='{src}' archive HEAD | tar -x -C '{lib}'", shell=True, check=True)
+        subprocess.run(["make", "-C", lib, "OPENGL=0", "SERVER=0", "OPENMP=0", "GITHASH=0000000000gitnotfound0000000000000000000",
+                        "-j2"], check=True, capture_output=True)
+        _propeller_driver = os.path.join(work, "propeller")
+        subprocess.run(["cc", "-O3", "-std=c99", "-D_GNU_SOURCE", "-I" + os.path.join(lib, "src"),
+                        os.path.join(ROOT, "scripts", "peers", "rebound_propeller.c"), "-L" + os.path.join(lib, "src"),
+                        "-Wl,-rpath," + os.path.join(lib, "src"), "-lrebound", "-lm", "-o", _propeller_driver], check=True)
+    out = subprocess.run([_propeller_driver, "30000", "0.25", str(orbits), "1"], check=True, capture_output=True, text=True).stdout
+    fields = dict(kv.split("=", 1) for kv in out.split("RESULT", 1)[1].split() if "=" in kv)
+    return float(fields["cpu_per_orbit"]), fields
 
 
 def main():
@@ -52,7 +87,13 @@ def main():
     rows = []
     # 1. cases/propeller as shipped (moonlet, tau 0.0105) and REBOUND's patch of the same ring.
     plain, multi, peer, base_plain, base_multi = [], [], [], [], []
+    section, peer_section = [], []
     for r in range(repeats):
+        # The ring section, the same scene in both codes: no moonlet, the propeller's N_c.
+        section.append(cassini(os.path.join(ROOT, "cases/ring-section"), orbits, ["time.n_c=10"])[0])
+        ps = rebound(orbits, 30000, 2000, 18000, case_start=True)
+        if ps is not None:
+            peer_section.append(ps)
         if BASE:
             base_plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"], BASE)[0])
             base_multi.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'], BASE)[0])
@@ -60,12 +101,14 @@ def main():
         cpu, s = cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'])
         multi.append(cpu)
         mr = s.get("multirate", {})
-        p = rebound(orbits, 30000, 2000, 18000)
+        p, pf = rebound_propeller(orbits)
         if p is not None:
             peer.append(p)
-        print(f"repeat {r + 1}: cassini plain {plain[-1]:.1f}, multi-rate {multi[-1]:.1f}"
+        print(f"repeat {r + 1}: ring section: cassini {section[-1]:.1f}, REBOUND {peer_section[-1] if peer_section else 'n/a'};"
+              f" propeller: cassini plain {plain[-1]:.1f}, multi-rate {multi[-1]:.1f}"
               f" (contact steps {mr.get('contact_step_fraction', 0):.4f}, wakes {mr.get('wakes')},"
-              f" missed {mr.get('missed_moonlet_contacts')}), REBOUND {peer[-1] if peer else 'n/a'} CPU-s/orbit", flush=True)
+              f" missed {mr.get('missed_moonlet_contacts')}), REBOUND {peer[-1] if peer else 'n/a'}"
+              f" ({pf.get('collisions', '?')} collisions, {pf.get('moonlet_impacts', '?')} moonlet impacts) CPU-s/orbit", flush=True)
     # 2. Orbit cost against optical depth, ring section without a moonlet.
     for tau in taus:
         o = min(orbits, 0.1)
@@ -79,14 +122,17 @@ def main():
     print()
     if repeats:
         print(f"CPU-s per orbit, one rank, medians of {repeats} ({orbits} orbit runs):")
-        print(f"  cassini plain (velocity Verlet, N_c = 10, skin 0.8 m): {statistics.median(plain):.1f}")
-        print(f"  cassini multi-rate (as shipped):           {statistics.median(multi):.1f}")
+        print(f"  ring section, no moonlet: cassini multi-rate {statistics.median(section):.1f}"
+              + (f", REBOUND {statistics.median(peer_section):.1f}, ratio {statistics.median(section) / statistics.median(peer_section):.3f}"
+                 if peer_section else ""))
+        print(f"  propeller: cassini plain (velocity Verlet, N_c = 10, skin 0.8 m): {statistics.median(plain):.1f}")
+        print(f"  propeller: cassini multi-rate (as shipped):           {statistics.median(multi):.1f}")
         if BASE:
             print(f"  base binary ({BASE}): plain {statistics.median(base_plain):.1f}, multi-rate "
                   f"{statistics.median(base_multi):.1f}; new/base {statistics.median(plain) / statistics.median(base_plain):.3f}, "
                   f"{statistics.median(multi) / statistics.median(base_multi):.3f}")
     if peer:
-        print(f"  REBOUND (SEI, dt = T0/1000, hard spheres): {statistics.median(peer):.1f}")
+        print(f"  propeller: REBOUND (SEI, dt = T0/1000, hard spheres, the moonlet's gravity and surface): {statistics.median(peer):.1f}")
     if rows:
         print("\noptical depth scan (ring-section in a 1 km x 1 km patch, no moonlet, N_c = 10, 0.1-orbit runs), CPU-s per orbit:")
         print("  tau      N   plain  multi-rate  contact-step fraction  REBOUND")
@@ -96,7 +142,9 @@ def main():
         return
     print(f"\nratio plain/multi-rate: {statistics.median(plain) / statistics.median(multi):.2f}")
     if peer:
-        print(f"ratio multi-rate/REBOUND: {statistics.median(multi) / statistics.median(peer):.2f}")
+        print(f"ratio multi-rate/REBOUND (propeller): {statistics.median(multi) / statistics.median(peer):.2f}")
+    if peer_section:
+        print(f"ratio multi-rate/REBOUND (ring section): {statistics.median(section) / statistics.median(peer_section):.3f}")
 
 
 if __name__ == "__main__":
