@@ -423,10 +423,24 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
   std::size_t j = p.nlocal;
   for (int r = 0; r < dom_.nranks; ++r) {
     if (r == me) {  // the same values as pack_ghost() gives, copied slot to slot (no staging)
+      // Component by component: a shift built as a Vec3 went through the stack, and the vector
+      // load of components just stored one by one stalled (store forwarding fails): that was
+      // half of this loop's time. The same values as shift() and shear_velocity().
+      const bool sheared = dom_.shear.enabled;
+      const double L0 = dom_.length[0], L1 = dom_.length[1], L2 = dom_.length[2];
+      const double offset = dom_.shear.offset - shear_base_, rate = dom_.shear.rate;
       for (const Image& im : send_[me]) {
         const std::size_t i = im.index;
-        p.x[j] = p.x[i] + shift(im);
-        p.v[j] = Vec3(p.v[i][0] + shear_velocity(im), p.v[i][1], p.v[i][2]);
+        double sx = im.k[0] * L0;
+        if (sheared) sx += im.k[1] * offset;
+        const double x = p.x[i][0] + sx, y = p.x[i][1] + im.k[1] * L1, z = p.x[i][2] + im.k[2] * L2;
+        p.x[j][0] = x;
+        p.x[j][1] = y;
+        p.x[j][2] = z;
+        const double vx = p.v[i][0] + (sheared ? im.k[1] * rate * L1 : 0.0), vy = p.v[i][1], vz = p.v[i][2];
+        p.v[j][0] = vx;
+        p.v[j][1] = vy;
+        p.v[j][2] = vz;
         if (p.rotation) p.omega[j] = p.omega[i];
         if (extra > 0)
           for (auto& c : p.module_columns)
