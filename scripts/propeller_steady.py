@@ -3,7 +3,7 @@ Lees-Edwards boundaries, started hot at the unperturbed ring's steady dispersion
 scripts/ring_steady_state.py), with criteria that measure what the thesis means.
 
    /usr/bin/python3 scripts/propeller_steady.py [--e 0.5 0.7 0.8 0.9] [--seeds 1 2] [--orbits 3]
-                     [--sigma 0.0011 0.023 0.035 0.056] [--ly 2000] [--lx 18000] [--lanes 2] [--table-only]
+                     [--sigma 0.0011 0.023 0.035 0.056] [--ly 2000] [--lx 18000] [--radius 2] [--lanes 2] [--table-only]
                      [--out DIR]
 
 Criteria, per snapshot (every T0/10) after the first orbit (the propeller forms in ~1 orbit and
@@ -45,6 +45,8 @@ ap.add_argument("--ly", type=float, default=2000.0,
                 help="radial box width (m; the case's 2 km = 8.8 r_H); the count scales to keep the optical depth")
 ap.add_argument("--lx", type=float, default=18000.0,
                 help="azimuthal box length (m; the case's 18 km); the count scales to keep the optical depth")
+ap.add_argument("--radius", type=float, default=2.0,
+                help="particle radius (m; the case's 2 m); the count scales to keep the optical depth")
 ap.add_argument("--lanes", type=int, default=2)
 ap.add_argument("--table-only", action="store_true")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-steady"))
@@ -81,9 +83,9 @@ def simulate(job):
     sets = [f"seed={seed}", f"species.0.e={e}", "domain.modified_lees_edwards=true", "particles.dispersion=0",
             f"particles.velocity_sigma={sigma}", f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 10:.4f}",
             "output.dump_every=0", "output.progress_every=600"]
-    if a.ly != 2000.0 or a.lx != 18000.0:  # cases/propeller: 30,000 particles in 18 km x 2 km
+    if a.ly != 2000.0 or a.lx != 18000.0 or a.radius != 2.0:  # cases/propeller: 30,000 particles of 2 m in 18 km x 2 km
         sets += [f"domain.lo=[{-a.lx / 2}, {-a.ly / 2}, -10.0]", f"domain.hi=[{a.lx / 2}, {a.ly / 2}, 10.0]",
-                 f"particles.count={round(30000 * a.ly / 2000 * a.lx / 18000)}"]
+                 f"species.0.radius={a.radius}", f"particles.count={round(30000 * a.ly / 2000 * a.lx / 18000 * (2.0 / a.radius) ** 2)}"]
     cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml"), "--out", d, "--force"]
     for s in sets:
         cmd += ["--set", s]

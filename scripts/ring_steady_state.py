@@ -3,7 +3,7 @@
 planar and 3D (Saturn's vertical tide), from a hot and a cold start, run until it is stationary.
 
    /usr/bin/python3 scripts/ring_steady_state.py [--dims 2 3] [--e 0.25 0.5 ...] [--seeds 1 2 3]
-                     [--box 1000] [--segment 5] [--max-orbits 40 20] [--lanes 2] [--out DIR]
+                     [--box 1000] [--radius 2] [--segment 5] [--max-orbits 40 20] [--lanes 2] [--out DIR]
    /usr/bin/python3 scripts/ring_steady_state.py --table-only [...]   (analysis of what is there)
 
 Each run advances in segments of --segment orbits (a restart from the last segment's snapshot:
@@ -39,8 +39,7 @@ from cassini_tools import Hill, Run
 HILL = Hill({})  # cases/ring-section and cases/propeller: hill's default Saturn and orbit
 OMEGA0, T0 = HILL.omega0, HILL.period
 V_HILL = HILL.hill_radius(1.27e10) * OMEGA0  # the propeller's moonlet: 35.2 mm/s
-RADIUS, TAU = 2.0, 30000 * math.pi * 2.0 ** 2 / (18000.0 * 2000.0)  # cases/propeller's ring
-PARTICLE_MASS = 4 / 3 * math.pi * RADIUS ** 3 * 500.0  # kg: cases/ring-section's density
+TAU = 30000 * math.pi * 2.0 ** 2 / (18000.0 * 2000.0)  # cases/propeller's ring
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--dims", type=int, nargs="*", default=[2, 3])
@@ -48,6 +47,8 @@ ap.add_argument("--e", type=float, nargs="*", default=[0.25, 0.5, 0.7, 0.8, 0.9]
 ap.add_argument("--e3d", type=float, nargs="*", default=None, help="e values of the 3D groups (default: --e)")
 ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3])
 ap.add_argument("--box", type=float, default=1000.0, help="square patch side (m)")
+ap.add_argument("--radius", type=float, default=2.0,
+                help="particle radius (m; the case's 2 m); the count scales to keep the optical depth")
 ap.add_argument("--segment", type=int, default=5, help="orbits per segment")
 ap.add_argument("--max-orbits", type=int, nargs=2, default=[40, 20], metavar=("PLANAR", "3D"),
                 help="orbits after which a group still failing the criterion is reported as not stationary")
@@ -66,6 +67,8 @@ a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
 cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
 mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", "1"]
+RADIUS = a.radius
+PARTICLE_MASS = 4 / 3 * math.pi * RADIUS ** 3 * 500.0  # kg: cases/ring-section's density
 count = round(TAU * a.box ** 2 / (math.pi * RADIUS ** 2))
 DT = 0.1  # time.n_c = 10 at t_c = 1 s
 # A segment is a whole number of steps, so that every segment's end is a snapshot step.
@@ -82,7 +85,8 @@ def system(dims, start, e, seed):
     half = a.box / 2
     hot = a.hot[0] if dims == 2 else a.hot[1]
     sigma = hot if start == "hot" else a.cold
-    s = [f"seed={seed}", f"species.0.e={e}", f"particles.count={count}", "particles.dispersion=0",
+    s = [f"seed={seed}", f"species.0.e={e}", f"species.0.radius={RADIUS}",
+         f"particles.count={count}", "particles.dispersion=0",
          f"particles.velocity_sigma={sigma}", "time.n_c=10"]
     if dims == 2:
         s += [f"domain.lo=[{-half}, {-half}, -10.0]", f"domain.hi=[{half}, {half}, 10.0]"]
@@ -284,7 +288,7 @@ e_cr = zero_crossing([(t["e"], t["hot_rate_per_orbit"]) for t in table if t["dim
 prev = {}
 if os.path.exists(os.path.join(a.out, "summary.json")):
     prev = json.load(open(os.path.join(a.out, "summary.json")))
-json.dump(dict(box_m=a.box, particles=count, optical_depth=TAU, omega0=OMEGA0, v_hill=V_HILL, seeds=a.seeds,
+json.dump(dict(box_m=a.box, radius_m=RADIUS, particles=count, optical_depth=TAU, omega0=OMEGA0, v_hill=V_HILL, seeds=a.seeds,
                segment_orbits=a.segment, max_orbits=dict(planar=a.max_orbits[0], three_d=a.max_orbits[1]), cap=a.cap, hot=a.hot, cold=a.cold,
                cpu_seconds=prev.get("cpu_seconds", 0.0) + cpu, groups=table,
                e_critical_3d=e_cr, e_where_sigma_is_v_hill_planar=v_hill_crossing()),
