@@ -172,9 +172,11 @@ def series(run):
 def judge(dims, e):
     """The criterion for one (dims, e) group: (state, detail dict)."""
     runs = {(start, s): series(name(dims, e, start, s)) for start in ("hot", "cold") for s in a.seeds}
+    guard = [f"{k[0]} s{k[1]}" for k in runs for d in segment_dirs(name(dims, e, *k))[-1:]
+             if os.path.exists(os.path.join(d, "summary.json")) and Run(d).summary.get("status") == "stopped by a guard"]
     n = min(len(v[0]) for v in runs.values())
-    if n == 0:
-        return "pending", {}
+    if n == 0:  # a run stopped by a guard before its first orbit mean (a start too hot for t_c) has none
+        return ("stopped", {"why": f"stopped by a guard: {', '.join(guard)}"}) if guard else ("pending", {})
     peak = max(r[:, 1].max() for _, r in runs.values())
     lost = max(r[0, 3] - r[-1, 3] for _, r in runs.values())
     detail = dict(orbits=n)
@@ -188,8 +190,6 @@ def judge(dims, e):
         if rates:
             detail["hot_rate_per_orbit"] = (float(np.mean(rates)), float(np.std(rates, ddof=1) / math.sqrt(len(rates))) if len(rates) > 1 else float("nan"))
     cap = a.cap[0] if dims == 2 else a.cap[1]
-    guard = [f"{k[0]} s{k[1]}" for k in runs for d in segment_dirs(name(dims, e, *k))[-1:]
-             if os.path.exists(os.path.join(d, "summary.json")) and Run(d).summary.get("status") == "stopped by a guard"]
     if math.sqrt(peak) > cap or lost > 0 or guard:
         detail["why"] = (f"sigma_y passed {cap} m/s" if math.sqrt(peak) > cap else
                          f"{lost:.0f} particles left through z" if lost > 0 else f"stopped by a guard: {', '.join(guard)}")
