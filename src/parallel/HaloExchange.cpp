@@ -28,12 +28,29 @@ std::vector<std::vector<double>>& HaloExchange::empty_buffers() {
   return out_;
 }
 
-Vec3 HaloExchange::shift(const Image& im) const {
-  Vec3 s(im.k[0] * dom_.length[0], im.k[1] * dom_.length[1], im.k[2] * dom_.length[2]);
+double HaloExchange::shift_x(const Image& im) const {
+  double s = im.k[0] * dom_.length[0];
   // Offset relative to its wrap at the last build, so an image does not jump by Lx when the
   // offset wraps between rebuilds.
-  if (dom_.shear.enabled) s[0] += im.k[1] * (dom_.shear.offset - shear_base_);
+  if (dom_.shear.enabled) s += im.k[1] * (dom_.shear.offset - shear_base_);
   return s;
+}
+
+Vec3 HaloExchange::shift(const Image& im) const {
+  return Vec3(shift_x(im), im.k[1] * dom_.length[1], im.k[2] * dom_.length[2]);
+}
+
+void HaloExchange::image_state(const ParticleStore& p, const Image& im, double* x, double* v) const {
+  // Component by component: a shift built as a Vec3 goes through the stack, and the vector load
+  // of components just stored one by one stalls (store forwarding fails): that was half of the
+  // per-step ghost update's time.
+  const std::size_t i = im.index;
+  x[0] = p.x[i][0] + shift_x(im);
+  x[1] = p.x[i][1] + im.k[1] * dom_.length[1];
+  x[2] = p.x[i][2] + im.k[2] * dom_.length[2];
+  v[0] = p.v[i][0] + shear_velocity(im);
+  v[1] = p.v[i][1];
+  v[2] = p.v[i][2];
 }
 
 double HaloExchange::shear_velocity(const Image& im) const {
@@ -382,9 +399,7 @@ std::size_t HaloExchange::ghost_width(const ParticleStore& p) const {
 
 void HaloExchange::pack_ghost(const ParticleStore& p, const Image& im, double* q) const {
   const std::size_t i = im.index;
-  const Vec3 xs = p.x[i] + shift(im);
-  q[0] = xs[0]; q[1] = xs[1]; q[2] = xs[2];
-  q[3] = p.v[i][0] + shear_velocity(im); q[4] = p.v[i][1]; q[5] = p.v[i][2];
+  image_state(p, im, q, q + 3);
   if (p.rotation) { q[6] = p.omega[i][0]; q[7] = p.omega[i][1]; q[8] = p.omega[i][2]; }
   double* e = q + 6 + (p.rotation ? 3 : 0);
   for (const auto& c : p.module_columns)
@@ -423,24 +438,9 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
   std::size_t j = p.nlocal;
   for (int r = 0; r < dom_.nranks; ++r) {
     if (r == me) {  // the same values as pack_ghost() gives, copied slot to slot (no staging)
-      // Component by component: a shift built as a Vec3 went through the stack, and the vector
-      // load of components just stored one by one stalled (store forwarding fails): that was
-      // half of this loop's time. The same values as shift() and shear_velocity().
-      const bool sheared = dom_.shear.enabled;
-      const double L0 = dom_.length[0], L1 = dom_.length[1], L2 = dom_.length[2];
-      const double offset = dom_.shear.offset - shear_base_, rate = dom_.shear.rate;
       for (const Image& im : send_[me]) {
         const std::size_t i = im.index;
-        double sx = im.k[0] * L0;
-        if (sheared) sx += im.k[1] * offset;
-        const double x = p.x[i][0] + sx, y = p.x[i][1] + im.k[1] * L1, z = p.x[i][2] + im.k[2] * L2;
-        p.x[j][0] = x;
-        p.x[j][1] = y;
-        p.x[j][2] = z;
-        const double vx = p.v[i][0] + (sheared ? im.k[1] * rate * L1 : 0.0), vy = p.v[i][1], vz = p.v[i][2];
-        p.v[j][0] = vx;
-        p.v[j][1] = vy;
-        p.v[j][2] = vz;
+        image_state(p, im, p.x[j].data(), p.v[j].data());
         if (p.rotation) p.omega[j] = p.omega[i];
         if (extra > 0)
           for (auto& c : p.module_columns)

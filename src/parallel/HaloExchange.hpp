@@ -108,6 +108,9 @@ class HaloExchange {
   // ids agreed by every rank (ordered by the crossing particle's id).
   void feed(ParticleStore& p);
   Vec3 shift(const Image& im) const;
+  double shift_x(const Image& im) const;  // shift()[0]: the box length and the shear's offset
+  // A ghost's position and velocity from its owner's, written component by component.
+  void image_state(const ParticleStore& p, const Image& im, double* x, double* v) const;
   std::vector<std::vector<double>>& empty_buffers();
   double shear_velocity(const Image& im) const;
   // A ghost's row (x, v, spin, ghost columns; `width` doubles) from its owner, and back.
