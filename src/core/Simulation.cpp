@@ -241,7 +241,7 @@ void Simulation::step() {
   stepping.stream = domain.shear.enabled ? domain.shear.rate * (next_time - time_at_build_) : 0.0;
   stepping.max_drift2 = 0;
   stepping.max_speed = -1;
-  stepping.state_summed = stepping.forces_cleared = false;
+  stepping.state_summed = stepping.forces_cleared = stepping.moved_known = false;
   ++step_count;  // first: the drift moves the state to this step (a guard in it names this step)
   time = next_time;
   {
@@ -265,7 +265,8 @@ void Simulation::step() {
     auto t = record.timers.scope(StageTimers::Comm);
     MPI_Request decided;
     MPI_Iallreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, domain.comm, &decided);
-    halo.update_ghosts(particles);
+    if (stepping.moved_known) halo.update_ghosts_of(particles, stepping.moved, true);
+    else halo.update_ghosts(particles);
     MPI_Wait(&decided, MPI_STATUS_IGNORE);
   }
   if (global[1] > 0) check_guards();

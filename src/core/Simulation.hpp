@@ -90,6 +90,12 @@ class Simulation {
     // (a plain loop, not a callback: accumulators then stay in registers).
     bool all_targets = true;
     std::vector<std::uint32_t> targets;
+    // An integrator that knows which owned particles' state (position, velocity, spin, carried
+    // columns) changed since the last ghost update lists them in `moved` and sets moved_known
+    // (in initial_integrate); the step's ghost update then refreshes only their images and the
+    // sheared ones (HaloExchange::update_ghosts_of), with the same result. Reset every step.
+    bool moved_known = false;
+    std::vector<std::uint32_t> moved;
     // A module column (ParticleStore::declare) in which 0 marks a particle whose stored state is
     // not the present one between a multi-rate integrator's long steps: force loops skip it as a
     // partner (it is woken before it can touch anything). -1: none.

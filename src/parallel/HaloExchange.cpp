@@ -377,6 +377,25 @@ void HaloExchange::build_ghosts(ParticleStore& p) {
   for (int r = 0; r < dom_.nranks; ++r) recv_doubles_[r] = recv_ghosts_[r] * int(6 + (p.rotation ? 3 : 0) + extra);
   p.resize_ghosts(in.size() / width + send_[me].size());
   ghost_sheared_.resize(p.nghost());
+  first_ghost_.assign(dom_.nranks + 1, p.nlocal);
+  for (int r = 0; r < dom_.nranks; ++r)
+    first_ghost_[r + 1] = first_ghost_[r] + (r == me ? send_[me].size() : std::size_t(recv_ghosts_[r]));
+  images_start_.assign(p.nlocal + 1, 0);
+  sheared_.resize(dom_.nranks);
+  for (int r = 0; r < dom_.nranks; ++r) {
+    sheared_[r].clear();
+    for (std::size_t s = 0; s < send_[r].size(); ++s) {
+      ++images_start_[send_[r][s].index + 1];
+      if (send_[r][s].k[1] != 0) sheared_[r].push_back(static_cast<std::uint32_t>(s));
+    }
+  }
+  for (std::size_t i = 0; i < p.nlocal; ++i) images_start_[i + 1] += images_start_[i];
+  images_.resize(images_start_[p.nlocal]);
+  {
+    std::vector<std::uint32_t> at(images_start_.begin(), images_start_.end() - 1);
+    for (int r = 0; r < dom_.nranks; ++r)
+      for (std::size_t s = 0; s < send_[r].size(); ++s) images_[at[send_[r][s].index]++] = {r, static_cast<std::uint32_t>(s)};
+  }
   // Ghosts by source rank, in send order (update_ghosts relies on it).
   scratch_.resize(width);
   const double* b = in.data();
@@ -418,8 +437,15 @@ void HaloExchange::unpack_ghost(ParticleStore& p, const double* b, std::size_t j
     }
 }
 
+void HaloExchange::write_own_image(ParticleStore& p, const Image& im, std::size_t j) const {
+  const std::size_t i = im.index;
+  image_state(p, im, p.x[j].data(), p.v[j].data());
+  if (p.rotation) p.omega[j] = p.omega[i];
+  for (auto& c : p.module_columns)
+    if (c.carried()) std::copy_n(&c.data[i * c.width], c.width, &c.data[j * c.width]);
+}
+
 void HaloExchange::update_ghosts(ParticleStore& p) {
-  const int extra = p.ghost_column_width();
   const std::size_t width = ghost_width(p);
   const int me = dom_.rank;
   for (int r = 0; r < dom_.nranks; ++r) {
@@ -438,28 +464,20 @@ void HaloExchange::update_ghosts(ParticleStore& p) {
   std::size_t j = p.nlocal;
   for (int r = 0; r < dom_.nranks; ++r) {
     if (r == me) {  // the same values as pack_ghost() gives, copied slot to slot (no staging)
-      for (const Image& im : send_[me]) {
-        const std::size_t i = im.index;
-        image_state(p, im, p.x[j].data(), p.v[j].data());
-        if (p.rotation) p.omega[j] = p.omega[i];
-        if (extra > 0)
-          for (auto& c : p.module_columns)
-            if (c.carried()) std::copy_n(&c.data[i * c.width], c.width, &c.data[j * c.width]);
-        ++j;
-      }
+      for (const Image& im : send_[me]) write_own_image(p, im, j++);
       continue;
     }
     for (int g = 0; g < recv_ghosts_[r]; ++g, b += width) unpack_ghost(p, b, j++);
   }
 }
 
-void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed) {
+void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed, bool sheared) {
+  if (sheared && full_updates) {
+    update_ghosts(p);
+    return;
+  }
   const std::size_t width = ghost_width(p), row = 1 + width;  // a row: the ghost's place in send order, its values
   const int n = dom_.nranks, me = dom_.rank;
-  // Marks by slot, set and cleared for the changed ones only: most contact steps change none,
-  // and a pass over every owned particle would be most of such a step's cost.
-  if (changed_.size() < p.nlocal) changed_.resize(p.nlocal, 0);
-  for (const std::uint32_t i : changed) changed_[i] = 1;
   // To every rank this one sends ghosts to: a count, then the rows of the changed ones.
   constexpr int kTag = 7302;
   std::vector<MPI_Request> requests;
@@ -472,36 +490,47 @@ void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uin
       requests.emplace_back();
       MPI_Irecv(in_.data() + at[r], int(at[r + 1] - at[r]), MPI_DOUBLE, r, kTag, dom_.comm, &requests.back());
     }
+  auto add_row = [&](int r, std::uint32_t s) {
+    auto& b = out_[r];
+    b.resize(b.size() + row);
+    double* q = &b[b.size() - row];
+    q[0] = double(s);
+    pack_ghost(p, send_[r][s], q + 1);
+  };
+  for (int r = 0; r < n; ++r) {
+    if (r == me || send_[r].empty()) continue;
+    out_[r].assign(1, 0.0);
+    if (sheared)
+      for (const std::uint32_t s : sheared_[r]) add_row(r, s);
+  }
+  // This rank's own images first: a sheared one's position follows the offset (only x moves).
+  if (sheared)
+    for (const std::uint32_t s : sheared_[me]) {
+      const Image& im = send_[me][s];
+      p.x[first_ghost_[me] + s][0] = p.x[im.index][0] + shift_x(im);
+    }
+  // Then every image of a changed particle (a sheared one to another rank is already in its
+  // rows), once: a row more than the ghosts a rank holds would not fit its receive.
+  if (changed_.size() < p.nlocal) changed_.resize(p.nlocal, 0);
+  for (const std::uint32_t i : changed) {
+    if (changed_[i]) continue;
+    changed_[i] = 1;
+    for (std::uint32_t k = images_start_[i]; k < images_start_[i + 1]; ++k) {
+      const ImageRef ref = images_[k];
+      if (ref.rank == me) write_own_image(p, send_[me][ref.slot], first_ghost_[me] + ref.slot);
+      else if (!(sheared && send_[ref.rank][ref.slot].k[1] != 0)) add_row(ref.rank, ref.slot);
+    }
+  }
+  for (const std::uint32_t i : changed) changed_[i] = 0;
   for (int r = 0; r < n; ++r) {
     if (r == me || send_[r].empty()) continue;
     auto& b = out_[r];
-    b.assign(1, 0.0);
-    if (!changed.empty())
-      for (std::size_t s = 0; s < send_[r].size(); ++s)
-        if (changed_[send_[r][s].index]) {
-          b.resize(b.size() + row);
-          double* q = &b[b.size() - row];
-          q[0] = double(s);
-          pack_ghost(p, send_[r][s], q + 1);
-        }
     b[0] = double((b.size() - 1) / row);
     bytes_sent += static_cast<std::int64_t>(b.size() * sizeof(double));
     ++messages_sent;
     requests.emplace_back();
     MPI_Isend(b.data(), int(b.size()), MPI_DOUBLE, r, kTag, dom_.comm, &requests.back());
   }
-  // This rank's own images (periodic wrap), straight from the particles.
-  std::vector<std::size_t> first(n + 1, p.nlocal);  // each source rank's first ghost slot
-  for (int r = 0; r < n; ++r) first[r + 1] = first[r] + (r == me ? send_[me].size() : std::size_t(recv_ghosts_[r]));
-  if (!changed.empty()) {
-    std::vector<double> q(width);
-    for (std::size_t s = 0; s < send_[me].size(); ++s)
-      if (changed_[send_[me][s].index]) {
-        pack_ghost(p, send_[me][s], q.data());
-        unpack_ghost(p, q.data(), first[me] + s);
-      }
-  }
-  for (const std::uint32_t i : changed) changed_[i] = 0;
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
   for (int r = 0; r < n; ++r) {
     if (r == me || recv_ghosts_[r] == 0) continue;
@@ -509,7 +538,7 @@ void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uin
     const std::size_t rows = std::size_t(b[0]);
     for (std::size_t k = 0; k < rows; ++k) {
       const double* q = b + 1 + k * row;
-      unpack_ghost(p, q + 1, first[r] + std::size_t(q[0]));
+      unpack_ghost(p, q + 1, first_ghost_[r] + std::size_t(q[0]));
     }
   }
 }

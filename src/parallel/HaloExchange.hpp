@@ -32,8 +32,16 @@ class HaloExchange {
   void update_ghosts(ParticleStore& p);
   // The same for the ghosts of `changed` owned particles only (indices below nlocal), in one
   // round of messages with the ranks this one exchanges ghosts with: each says which of its
-  // particles changed, often none, so no collective is needed to agree whether any did.
-  void update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed);
+  // particles changed, often none, so no collective is needed to agree whether any did. With
+  // `sheared`, also every sheared image's position (its x shift follows the shear offset, which
+  // moves every step): then, if no other owned particle changed since the last update, the
+  // ghosts hold the same bits as update_ghosts() writes. The cost is that of the changed
+  // particles' images and the sheared ones, where update_ghosts() rewrites every ghost: between
+  // a multi-rate integrator's long steps a few dozen particles move, and the full rewrite was
+  // a quarter of a ring's contact steps.
+  void update_ghosts_of(ParticleStore& p, const std::vector<std::uint32_t>& changed, bool sheared = false);
+  // For tests: every update_ghosts_of(..., sheared = true) rewrites every ghost instead.
+  bool full_updates = false;
 
   std::int64_t removed = 0;
   std::int64_t removed_upper = 0;  // of those, through an upper face (an outlet downstream)
@@ -117,6 +125,8 @@ class HaloExchange {
   std::size_t ghost_width(const ParticleStore& p) const;
   void pack_ghost(const ParticleStore& p, const Image& im, double* q) const;
   void unpack_ghost(ParticleStore& p, const double* b, std::size_t j) const;
+  // This rank's own image `im`, written straight into ghost slot j (pack_ghost's values).
+  void write_own_image(ParticleStore& p, const Image& im, std::size_t j) const;
   // Sends out[r] to rank r and gathers what every rank sent here into `in`, ordered by source
   // rank. With `rcount` given, the receive sizes are known and the count exchange is skipped
   // (the per-step ghost update).
@@ -127,7 +137,14 @@ class HaloExchange {
   double range_;
   std::vector<std::vector<Image>> send_;  // per destination rank
   std::vector<int> recv_ghosts_;          // ghosts received per source rank
-  std::vector<char> changed_;             // update_ghosts_of: owned particles to send (all 0 between calls)
+  // Each owned particle's images, as (destination rank, place in send_[rank]), particle i's
+  // from images_start_[i]; and per destination the places of the sheared images (k_y != 0).
+  struct ImageRef { std::int32_t rank; std::uint32_t slot; };
+  std::vector<std::uint32_t> images_start_;
+  std::vector<ImageRef> images_;
+  std::vector<std::vector<std::uint32_t>> sheared_;
+  std::vector<std::size_t> first_ghost_;  // each source rank's first ghost slot
+  std::vector<char> changed_;             // update_ghosts_of: marks, all 0 between calls
   std::vector<int> recv_doubles_;         // per-step update message sizes
   std::vector<std::int8_t> ghost_sheared_;  // per ghost slot: its k_y (sheared_image)
   std::vector<int> recv_others_;          // the same without this rank's own images

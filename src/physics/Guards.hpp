@@ -22,6 +22,7 @@ class Guards : public Module {
   void end_of_step(Simulation& sim) override;
 
  private:
+  static constexpr long kEnergyPeriod = 100;  // steps between energy checks (at least)
   std::string diagnose(const Simulation& sim) const;  // why the fast scan failed
   double max_overlap_, energy_growth_;
   struct Energy {
@@ -32,6 +33,7 @@ class Guards : public Module {
   double max_step_;      // fraction of the smallest radius
   double step_limit2_ = 0;  // (max_step_ * smallest radius)^2
   double last_drift2_ = 0;  // the integrator's max_drift2 of the previous step
+  long next_energy_check_ = 0;  // the energy guard's next step (or the first synchronised one after it)
 };
 
 }  // namespace cassini

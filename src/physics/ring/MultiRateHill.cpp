@@ -282,8 +282,18 @@ void MultiRateHill::find_watched(const Simulation& sim) {
 }
 
 void MultiRateHill::initial_integrate(Simulation& sim) {
-  if (!in_long_step_) begin_long_step(sim);
   ParticleStore& p = sim.particles;
+  if (!in_long_step_) {
+    begin_long_step(sim);  // kicks the free particles and sets every mode: all ghosts change
+  } else {
+    // Since the last ghost update only the particles on contact steps (their last kick, this
+    // drift) and the drifting ones changed: the free ones keep their state of t_ref. (A rebuild
+    // in between made the ghosts anew from the present state; the particles it woke send
+    // their ghosts in pre_force.)
+    sim.stepping.moved_known = true;
+    sim.stepping.moved.assign(contact_.begin(), contact_.end());
+    sim.stepping.moved.insert(sim.stepping.moved.end(), drifting_.begin(), drifting_.end());
+  }
   const double dt = dt_, h = 0.5 * dt_, stream = sim.stepping.stream, c = rot_c_, s = rot_s_;
   const bool planar = planar_;
   Vec3* X = p.x.data();
