@@ -4,7 +4,8 @@ after the other, two scenes, each the same in both codes:
     (../shared/peers/rebound/run.sh, started as the case files: RING_S0=0 RING_DISPFRAC=0.01);
   - the propeller (cases/propeller, plain and multi-rate schemes) against REBOUND's patch with the
     same moonlet (scripts/peers/rebound_propeller.c: its gravity and a hard fixed surface).
-CASSINI_BASE=/path/to/older/cassini also times that binary in the same repeats (a change's cost)."""
+CASSINI_BASE=/path/to/older/cassini also times that binary in the same repeats (a change's cost);
+PLAIN=0 leaves out the propeller's plain scheme (200 CPU-s a repeat)."""
 import atexit, os, re, resource, shutil, statistics, subprocess, sys, tempfile
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), os.pardir, "python"))
 from cassini_tools import Hill, Run
@@ -22,6 +23,7 @@ def child_cpu():
 
 
 BASE = os.environ.get("CASSINI_BASE")
+PLAIN = os.environ.get("PLAIN", "1") != "0"
 
 
 def cassini(case, orbits, overrides, binary=os.path.join(ROOT, "build/cassini")):
@@ -87,17 +89,22 @@ def main():
     rows = []
     # 1. cases/propeller as shipped (moonlet, tau 0.0105) and REBOUND's patch of the same ring.
     plain, multi, peer, base_plain, base_multi = [], [], [], [], []
-    section, peer_section = [], []
+    section, peer_section, base_section = [], [], []
+    nan = float("nan")
     for r in range(repeats):
         # The ring section, the same scene in both codes: no moonlet, the propeller's N_c.
+        if BASE:
+            base_section.append(cassini(os.path.join(ROOT, "cases/ring-section"), orbits, ["time.n_c=10"], BASE)[0])
         section.append(cassini(os.path.join(ROOT, "cases/ring-section"), orbits, ["time.n_c=10"])[0])
         ps = rebound(orbits, 30000, 2000, 18000, case_start=True)
         if ps is not None:
             peer_section.append(ps)
         if BASE:
-            base_plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"], BASE)[0])
+            base_plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"], BASE)[0]
+                              if PLAIN else nan)
             base_multi.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'], BASE)[0])
-        plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"])[0])
+        plain.append(cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="verlet"', "contact.skin=0.8"])[0]
+                     if PLAIN else nan)
         cpu, s = cassini(os.path.join(ROOT, "cases/propeller"), orbits, ['time.integrator="multirate"'])
         multi.append(cpu)
         mr = s.get("multirate", {})
@@ -128,8 +135,10 @@ def main():
         print(f"  propeller: cassini plain (velocity Verlet, N_c = 10, skin 0.8 m): {statistics.median(plain):.1f}")
         print(f"  propeller: cassini multi-rate (as shipped):           {statistics.median(multi):.1f}")
         if BASE:
-            print(f"  base binary ({BASE}): plain {statistics.median(base_plain):.1f}, multi-rate "
-                  f"{statistics.median(base_multi):.1f}; new/base {statistics.median(plain) / statistics.median(base_plain):.3f}, "
+            print(f"  base binary ({BASE}): ring section {statistics.median(base_section):.1f}, propeller plain "
+                  f"{statistics.median(base_plain):.1f}, multi-rate {statistics.median(base_multi):.1f}; new/base "
+                  f"{statistics.median(section) / statistics.median(base_section):.3f}, "
+                  f"{statistics.median(plain) / statistics.median(base_plain):.3f}, "
                   f"{statistics.median(multi) / statistics.median(base_multi):.3f}")
     if peer:
         print(f"  propeller: REBOUND (SEI, dt = T0/1000, hard spheres, the moonlet's gravity and surface): {statistics.median(peer):.1f}")
