@@ -83,7 +83,7 @@ ModuleKind SelfGravity::kind() {
       }
     }
     const double spacing = std::max((c.hi[0] - c.lo[0]) / grid[0], (c.hi[1] - c.lo[1]) / grid[1]);
-    s.split = f.number(g + "split", 2 * spacing);  // within 1 % of Newton's law (SelfGravity.hpp)
+    s.split = f.number(g + "split", 2.5 * spacing);  // binaries at 1-3 h held to 1e-4 (SelfGravity.hpp)
     if (!(s.split > 0)) f.fail(g + "split", "a length > 0 (m): the width of the Gaussian splitting mesh and pairs");
     s.short_range = f.boolean(g + "short_range", true);
     s.every = f.integer(g + "every", 1);

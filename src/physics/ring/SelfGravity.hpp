@@ -13,16 +13,18 @@
 // images, O(N_z^2) per mode. Planar scenes use one layer and only the in-plane force.
 //
 // Long and short range (P3M with a Gaussian split, as Ewald summation splits): the mesh carries
-// the pull of Gaussian spheres of width eps (self_gravity.split; default two grid spacings), and
+// the pull of Gaussian spheres of width eps (self_gravity.split; default 2.5 grid spacings), and
 // pairs closer than r_s = 4 sqrt(2) eps add the rest, Newton's law minus the Gaussians',
 //   g_short(r) = G m / r^2 (erfc(x) + 2 x exp(-x^2) / sqrt(pi)),  x = r / (eps sqrt 2),
 // which is 5e-7 of Newton's at r_s. Together: Newton's law between the particles' centres at
 // every distance (exact for non-overlapping spheres: no softening is needed), including
-// particles resting on each other in a wake. Why eps = 2 h by default: at eps = h the mesh's CIC
-// error on the Gaussian part is 5-10 % of it at 1-3 h, 2-5 % of the total force there, and the
-// error is not a gradient: a binary at 1.5 h spirals in while gaining kinetic energy; at 2 h the
-// total is within 1 % of Newton's everywhere and binaries keep r and KE to 1e-4
-// (tests/test_self_gravity.cpp). The halo is widened to r_s + skin for the pairs; each
+// particles resting on each other in a wake. Why eps = 2.5 h by default: at eps = h the mesh's
+// CIC error on the Gaussian part is 5-10 % of it at 1-3 h, 2-5 % of the total force there, and
+// the error is not a gradient: a binary at 1.5 h spirals in while gaining kinetic energy; at 2 h
+// the total is within 1 % of Newton's everywhere, but a binary at 3 h, where the mesh carries
+// half the pull, still drifts by 2.4e-4 in r and 6.2e-4 in KE over 10 orbits; at 2.5 h binaries
+// at 1-3 h keep r and KE to 1e-4 (tests/test_self_gravity.cpp), and the 400 m wakes' Q matches
+// REBOUND's, where at 2 h it sat 6 % below (docs/rings.md). The halo is widened to r_s + skin for the pairs; each
 // particle's partners within r_s + skin are listed at every rebuild in id order (a Verlet list:
 // the rebuild rule covers the halo's range), so its sum is the same on any rank count and after
 // a restart, whenever the list was built. Without the short range (self_gravity.short_range =
