@@ -287,6 +287,40 @@ TEST(ChannelWalls, BeadPressedIntoTheNeckByDragComesToRestAtTheForceBalance) {
   }
 }
 
+TEST(ChannelWalls, BeadRollsToRestAlongASideWallUnderRollingResistance) {
+  // The clogging studies' rolling resistance acts against the channel's side walls too. A bead
+  // pressed onto the straight side wall at y = -2e-4 by a body force g along -y, rolling along x
+  // without slip (omega_z = -v0 / a): the wall's limit torque mu_r a m g decelerates it at
+  // 5/7 mu_r g, as on a floor (tests/test_contact_law.cpp), and it stops after v0^2 / (2 decel).
+  // Without the rolling spring on the channel's faces it would roll on at v0.
+  const double a = 3.3333e-5, m = 1050 * 4.0 / 3.0 * std::numbers::pi * a * a * a, g = 9.81, mu_r = 0.1;
+  const double v0 = 0.01, decel = 5.0 / 7.0 * mu_r * g, t_stop = v0 / decel;
+  auto sim = make_sim(channel_case(R"(["contact", "channel", "gravity"])") + "[gravity]\ng = [0.0, -9.81, 0.0]\n",
+                      {"species[0].mu_r=0.1", "species[0].mu_d=0.5"});
+  const double x0 = -5e-4;  // the straight upstream part: the contraction starts at x = -1.5e-4
+  sim->particles.add(0, 0, a, m, Vec3(x0, -2e-4 + a, 5e-5), Vec3(v0, 0, 0));
+  sim->particles.omega[0] = Vec3(0, 0, -v0 / a);
+  sim->setup();
+  double v_a = 0, t_a = 0;
+  bool checked = false;
+  while (sim->time < 1.5 * t_stop) {
+    sim->step();
+    if (v_a == 0 && sim->time > 0.25 * t_stop) { v_a = sim->particles.v[0][0]; t_a = sim->time; }
+    if (t_a > 0 && sim->time > 0.75 * t_stop && sim->time - sim->dt <= 0.75 * t_stop) {
+      const double measured = (v_a - sim->particles.v[0][0]) / (sim->time - t_a);
+      std::printf("side wall rolling: deceleration / (5/7 mu_r g) = %.6f\n", measured / decel);
+      EXPECT_NEAR(measured / decel, 1, 1e-3) << "deceleration while rolling";
+      EXPECT_NEAR(sim->particles.v[0][0], -a * sim->particles.omega[0][2], 1e-6 * v0) << "no slip";
+      checked = true;
+    }
+  }
+  EXPECT_TRUE(checked);
+  EXPECT_LT(std::abs(sim->particles.v[0][0]), 1e-6 * v0) << "at rest after the stopping time";
+  const double distance = (sim->particles.x[0][0] - x0) / (v0 * v0 / (2 * decel));
+  std::printf("side wall rolling: stopping distance / v0^2 / (2 decel) = %.6f\n", distance);
+  EXPECT_NEAR(distance, 1, 2e-3) << "stopping distance";
+}
+
 TEST(ClogMonitor, BeadsTooBigForTheNeckClogIt) {
   auto sim = make_sim(channel_case(), {"channel.neck_width=6.0e-5", "clog.window=0.05", "time.end=2.0"});
   sim->setup();
@@ -574,7 +608,7 @@ TEST(ClogMonitor, ClearingThePileAndRecoveringCountsOnlyAvalanchesThatStartAfter
     }
     if (clog->avalanches().size() != counted) {
       counted = clog->avalanches().size();
-      if (counted > 1) EXPECT_GE(clog->avalanche_clogs().back(), clog->avalanche_starts().back());
+      if (counted > 1) { EXPECT_GE(clog->avalanche_clogs().back(), clog->avalanche_starts().back()); }
     }
   }
   ASSERT_EQ(clog->avalanches().size(), 3u) << "ended at t = " << sim->time << " after " << cleared.size()
