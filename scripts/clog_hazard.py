@@ -170,6 +170,14 @@ def report(runs, bins, s0, what="runs"):
         print(f"flat hazard beyond {s0}: chi^2 = {chi2:.1f} over {dof} degrees of freedom, p = {p:.3g}")
 
 
+def from_time(runs, t):
+    """Passes and clogs from time t on over runs (start, end, s, clogged), each run's passes
+    spread evenly over its time: passes / clogs is the stationary <s> if the hazard is flat from t."""
+    clogs = sum(1 for _, t1, _, c in runs if c and t1 >= t)
+    passes = sum(s * max(0.0, t1 - max(t, t0)) / (t1 - t0) for t0, t1, s, _ in runs if t1 > t0)
+    return passes, clogs
+
+
 def time_table(paths, edges, count=False, first=None):
     runs = [(t0, max(t1, t0), float(s), c) for t0, t1, s, c in records(paths, count, first)]
     if first is not None:  # avalanches: time since each count's start
@@ -186,9 +194,7 @@ def time_table(paths, edges, count=False, first=None):
         passes = sum(s * max(0.0, min(b, t1) - max(a, t0)) / (t1 - t0) for t0, t1, s, _ in runs if t1 > t0)
         if at_risk == 0:
             continue
-        # Every pass and clog from a on: the stationary estimate if the hazard is flat from there.
-        later_clogs = sum(1 for _, t1, _, c in runs if c and t1 >= a)
-        later = sum(s * max(0.0, t1 - max(a, t0)) / (t1 - t0) for t0, t1, s, _ in runs if t1 > t0)
+        later, later_clogs = from_time(runs, a)
         per_s = clogs / exposure if exposure > 0 else float("nan")
         per_bead = clogs / (passes + clogs) if passes + clogs > 0 else float("nan")
         tail = f"{later / later_clogs:.1f} +- {later / later_clogs / math.sqrt(later_clogs):.1f}" if later_clogs else "-"
