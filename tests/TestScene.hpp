@@ -1,6 +1,7 @@
 #pragma once
 // Small helpers to build a scene from an inline case text in tests.
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -104,6 +105,28 @@ inline Config config_from(const std::string& text, const std::vector<std::string
 inline std::unique_ptr<Simulation> make_sim(const std::string& text, const std::vector<std::string>& overrides = {},
                                             MPI_Comm comm = MPI_COMM_WORLD) {
   return std::make_unique<Simulation>(config_from(text, overrides), comm);
+}
+
+// Particle 0 rolling along +x without slip under a limit torque decelerates uniformly until it
+// stops at t_stop. Steps to 1.5 t_stop; returns the deceleration of v_x between 0.25 and 0.75
+// t_stop (NaN if the run never got there) and records v_x - roll_speed() at 0.75 t_stop.
+struct RollingToRest {
+  double deceleration = std::numeric_limits<double>::quiet_NaN();
+  double slip = std::numeric_limits<double>::quiet_NaN();  // v_x - the speed the spin gives
+};
+template <class RollSpeed>
+RollingToRest roll_to_rest(Simulation& sim, double t_stop, RollSpeed roll_speed) {
+  RollingToRest out;
+  double v_a = 0, t_a = 0;
+  while (sim.time < 1.5 * t_stop) {
+    sim.step();
+    if (t_a == 0 && sim.time > 0.25 * t_stop) { v_a = sim.particles.v[0][0]; t_a = sim.time; }
+    if (t_a > 0 && sim.time > 0.75 * t_stop && sim.time - sim.dt <= 0.75 * t_stop) {
+      out.deceleration = (v_a - sim.particles.v[0][0]) / (sim.time - t_a);
+      out.slip = sim.particles.v[0][0] - roll_speed();
+    }
+  }
+  return out;
 }
 
 // Particle i's vectors in a wall module's column (WallHistory: e.g. plane_wall_xi,

@@ -763,20 +763,10 @@ TEST(ContactLaw, SphereRollsToRestUnderRollingResistance) {
   sim->particles.add(0, 0, a, m, Vec3(0, 0, a), Vec3(v0, 0, 0));
   sim->particles.omega[0] = Vec3(0, v0 / a, 0);
   sim->setup();
-  double v_a = 0, t_a = 0;
-  bool checked = false;
-  while (sim->time < 1.5 * t_stop) {
-    sim->step();
-    if (v_a == 0 && sim->time > 0.25 * t_stop) { v_a = sim->particles.v[0][0]; t_a = sim->time; }
-    if (t_a > 0 && sim->time > 0.75 * t_stop && sim->time - sim->dt <= 0.75 * t_stop) {
-      const double measured = (v_a - sim->particles.v[0][0]) / (sim->time - t_a);
-      std::printf("rolling: deceleration / (5/7 mu_r g) = %.6f\n", measured / decel);
-      EXPECT_NEAR(measured / decel, 1, 1e-3) << "deceleration while rolling";
-      checked = true;
-      EXPECT_NEAR(sim->particles.v[0][0], a * sim->particles.omega[0][1], 1e-6 * v0) << "no slip";
-    }
-  }
-  EXPECT_TRUE(checked);
+  const auto roll = roll_to_rest(*sim, t_stop, [&] { return a * sim->particles.omega[0][1]; });
+  std::printf("rolling: deceleration / (5/7 mu_r g) = %.6f\n", roll.deceleration / decel);
+  EXPECT_NEAR(roll.deceleration / decel, 1, 1e-3) << "deceleration while rolling";
+  EXPECT_NEAR(roll.slip, 0, 1e-6 * v0) << "no slip";
   EXPECT_LT(std::abs(sim->particles.v[0][0]), 1e-6 * v0) << "at rest after the stopping time";
   std::printf("rolling: stopping distance / v0^2 / (2 decel) = %.6f\n", sim->particles.x[0][0] / (v0 * v0 / (2 * decel)));
   EXPECT_NEAR(sim->particles.x[0][0] / (v0 * v0 / (2 * decel)), 1, 2e-3) << "stopping distance";
