@@ -89,6 +89,14 @@ void ContactForces::evaluate(Simulation& sim, const Parts& parts) {
   auto add_load = [&](std::size_t i, std::size_t j, const PairLaw& L) {
     const LinearSpringDashpot::Stability st = law_.stability(L);
     limit_.add(p, i, st.K, st.G, DampingLimit::weight(M[i], M[j]));
+    if constexpr (rolls) {  // the torque springs on i's spin (solid spheres, I = 2/5 m a^2)
+      const double mi = M[i], mj = M[j], ai = A[i], aj = A[j];
+      const double ii = 0.4 * mi * ai * ai, ij = 0.4 * mj * aj * aj;
+      const LinearSpringDashpot::Stability spin =
+          law_.spin_stability(L, mi * mj / (mi + mj) * L.k_per_mass, ai * aj / (ai + aj),
+                              1 / (1 / (1.4 * mi * ai * ai) + 1 / (1.4 * mj * aj * aj)), 1 / ii + 1 / std::sqrt(ii * ij));
+      limit_.add(p, i, spin.K, spin.G, 1.0);
+    }
   };
   shifts_.clear();
   // A contact with a partner's image across a Lees-Edwards boundary does work at the image's

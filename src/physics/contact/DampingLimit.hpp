@@ -8,12 +8,14 @@
 // blows up in a floor-bead-bead-ceiling wedge (docs/clogging.md), and LAMMPS or LIGGGHTS users
 // have to shrink the time step for the densest moment of a run.
 //
-// The limit scales each contact's damping (normal dashpot and tangential dashpot, not the
-// springs) by s_ij = min(s_i, s_j), where particle i's
+// The limit scales each contact's damping (its normal, tangential, rolling and twisting
+// dashpots, not the springs) by s_ij = min(s_i, s_j), where particle i's
 //   s_i = min(1, (B - K_i) / (2 G_i)),  K_i = sum w_c K_c,  G_i = sum w_c G_c,
 // over i's contacts c, with K_c and G_c the contact's stiffness and damping per step
 // (LinearSpringDashpot::stability) and w_c = m* (1/m_i + 1/sqrt(m_i m_j)) (1 for a wall; 1 for
-// equal beads). Then every row sum of the step's matrix is at most B < 4 (Gershgorin, in the
+// equal beads), plus, for contacts that resist rolling, their torque springs on i's spin
+// (LinearSpringDashpot::spin_stability: per i's own moment of inertia, which is what a crowded
+// bead's spin feels, not the rolling oscillator's 3.5x larger one). Then every row sum of the step's matrix is at most B < 4 (Gershgorin, in the
 // mass-weighted norm, as Lubrication's many-film scaling): no mode can grow, however many
 // contacts. Where the plain sum was already below B (every binary collision, any dilute
 // gas) s = 1 and the force is bit for bit the unlimited one, so e and t_c of a binary collision

@@ -274,13 +274,26 @@ class LinearSpringDashpot {
     }
     return s;
   }
-  // The law with its dashpots (normal and tangential) scaled by s; springs and the exact
-  // scheme's onset and exit forms unchanged.
+  // The load a contact's rolling and twisting springs (rolling()) put on a bead's spin, per step
+  // and per the bead's own inertia: k dt^2 / I, c dt / I summed over both parts. They turn the
+  // pair's reduced inertia about the contact point (`inertia`: the rolling oscillator's, 1.4 m a^2
+  // per sphere), but a crowded bead's spin feels all its contacts' torques through its own
+  // 2/5 m a^2 (`inv_inertia`: 1/I_i + 1/sqrt(I_i I_j), a wall 1/I_i, the weight of DampingLimit's
+  // Gershgorin row folded in). Left out, a pile's spins went unstable at mu_r 0.3 and N_c 5
+  // (HardCases.PileWithRollingResistanceComesToRestAtFiveStepsPerContact). kn: d f_n / d delta.
+  Stability spin_stability(const PairLaw& L, double kn, double reff, double inertia, double inv_inertia) const {
+    const TorqueSpring roll = torque_spring(L, kn, L.mu_r, reff, inertia, exact_),
+                       twist = torque_spring(L, kn, L.mu_o, reff, inertia * (2.0 / 7.0), exact_);
+    return {(roll.k + twist.k) * dt_ * dt_ * inv_inertia, (roll.c + twist.c) * dt_ * inv_inertia};
+  }
+  // The law with its dashpots (normal, tangential, rolling and twisting) scaled by s; springs
+  // and the exact scheme's onset and exit forms unchanged.
   static PairLaw damped(const PairLaw& L, double s) {
     PairLaw d = L;
     d.gamma_eff *= s;
     d.gamma_per_mass *= s;
     d.gt_eff *= s;
+    d.eta_r *= s;
     return d;
   }
   // Some particle could crowd enough contacts (12, a dense packing's most) to need DampingLimit:
@@ -510,6 +523,22 @@ class LinearSpringDashpot {
     return spring_energy(*L, p.mass[i], delta, reff, n, xi, roll);
   }
 
+  // One part of rolling resistance (rolling()) as the step applies it: its torque spring k and
+  // dashpot c (under "exact" the discrete constants of the oscillator I theta'' = -k_law theta -
+  // 2 eta_r sqrt(I k_law) theta', whose squared frequency w2 and decay rate it also gives); 0
+  // where mu is 0.
+  struct TorqueSpring {
+    double k = 0, c = 0, w2 = 0, decay = 0;
+  };
+  TorqueSpring torque_spring(const PairLaw& L, double kn, double mu, double reff, double inertia, bool exact) const {
+    if (!(mu > 0)) return {};
+    const double k = 2.25 * kn * mu * mu * reff * reff;
+    if (!exact) return {k, 2 * L.eta_r * std::sqrt(inertia * k), 0, 0};
+    const double decay = L.eta_r * std::sqrt(k / inertia), w2 = k / inertia - decay * decay;
+    const DiscreteOscillator d = discrete_oscillator(w2, decay, dt_);
+    return {inertia * d.k, inertia * d.gamma, w2, decay};
+  }
+
   // Rolling and twisting resistance, the elastic-plastic spring-dashpot (Ai, Chen, Rotter & Ooi
   // 2011, their model C; twisting alike): a torque spring M on the relative spin
   // w = omega_i - omega_j, in its rolling part (across n) and its twisting part (along n). Each
@@ -533,26 +562,17 @@ class LinearSpringDashpot {
         spring.setZero();
         return Vec3::Zero();
       }
-      const double k = 2.25 * kn * mu * mu * reff * reff, cap = mu * reff * fn;
-      double k_step = k, c_step = 2 * L.eta_r * std::sqrt(inertia * k);
+      const TorqueSpring t = torque_spring(L, kn, mu, reff, inertia, exact);
+      const double cap = mu * reff * fn;
       Vec3 torque;
-      if (exact) {
-        const double decay = L.eta_r * std::sqrt(k / inertia), w2 = k / inertia - decay * decay;
-        const DiscreteOscillator d = discrete_oscillator(w2, decay, dt_);
-        k_step = inertia * d.k;
-        c_step = inertia * d.gamma;
-        if (contact_time > 0 && contact_time < dt_) {  // onset: the exact twist since the contact began
-          const double x0 = oscillator_displacement(w2, decay, contact_time),
-                       x1 = oscillator_displacement(w2, decay, contact_time + dt_);
-          spring = (-k_step * x0) * w;
-          torque = (inertia * ((x1 - x0) / dt_ - 1.0) / dt_) * w;
-        } else {
-          spring -= (k_step * contact_time) * w;
-          torque = spring - c_step * w;
-        }
+      if (exact && contact_time > 0 && contact_time < dt_) {  // onset: the exact twist since the contact began
+        const double x0 = oscillator_displacement(t.w2, t.decay, contact_time),
+                     x1 = oscillator_displacement(t.w2, t.decay, contact_time + dt_);
+        spring = (-t.k * x0) * w;
+        torque = (inertia * ((x1 - x0) / dt_ - 1.0) / dt_) * w;
       } else {
-        spring -= (k_step * contact_time) * w;
-        torque = spring - c_step * w;
+        spring -= (t.k * contact_time) * w;
+        torque = spring - t.c * w;
       }
       const double s2 = spring.squaredNorm();
       if (s2 > cap * cap) {  // plastic: the spring stays at the limit torque, no dashpot
@@ -594,7 +614,17 @@ class LinearSpringDashpot {
       L = &own;
       if (impact && advance) *impact = delta > 0 ? u : 0.0;
     }
-    if (load) *load = stability(*L);
+    const double reff = wall_radius > 0 ? a * wall_radius / (a + wall_radius) : a;
+    const bool rolls = roll && xi && delta > 0 && (L->mu_r > 0 || L->mu_o > 0);
+    const double inertia = 1.4 * p.mass[i] * a * a;  // the wall does not spin; I + m a^2
+    if (load) {
+      *load = stability(*L);
+      if (rolls) {
+        const Stability spin = spin_stability(*L, p.mass[i] * L->k_per_mass, reff, inertia, p.inv_inertia[i]);
+        load->K += spin.K;
+        load->G += spin.G;
+      }
+    }
     PairLaw limited;
     if (damping < 1) {
       limited = damped(*L, damping);
@@ -602,10 +632,8 @@ class LinearSpringDashpot {
     }
     if (xi) vrel -= a * p.omega[i].cross(n);
     double overlap_shift = 0;
-    const double reff = wall_radius > 0 ? a * wall_radius / (a + wall_radius) : a;
-    const bool rolls = roll && xi && delta > 0 && (L->mu_r > 0 || L->mu_o > 0);
     Rolling rl;
-    if (rolls) rl = {p.omega[i], 1.4 * p.mass[i] * a * a, *roll};  // the wall does not spin; I + m a^2
+    if (rolls) rl = {p.omega[i], inertia, *roll};
     const Vec3 f = force(parts_, *L, p.mass[i], delta, n, vrel, xi, ft, advance, &overlap_shift, reff, rolls ? &rl : nullptr);
     if (shift) *shift = -overlap_shift;  // more overlap: towards the wall
     if (xi) torque = (-a * n).cross(ft) + rl.torque;  // frictionless walls exert no torque: skip the work
