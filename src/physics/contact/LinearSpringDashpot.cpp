@@ -54,12 +54,21 @@ LinearSpringDashpot::LinearSpringDashpot(const Config& config, double dt)
     wall_table_.back().mu_d = cfg.species[a].wall_mu_d;
   }
   if (cfg.damping_limit && !hertz_) {
-    auto crowds = [&](const PairLaw& L) {
-      const Stability s = stability(L);
+    // With rolling resistance, the torque springs' load on a spin as well: it is scale-free,
+    // so beads of unit mass and radius give it (equal beads: m* 1/2, R* 1/2, inertia about the
+    // contact point 0.7, weight 2 / 0.4; a wall: 1, 1, 1.4, 1 / 0.4).
+    auto crowds = [&](const PairLaw& L, bool wall) {
+      Stability s = stability(L);
+      if (rolling_) {
+        const Stability spin = wall ? spin_stability(L, L.k_per_mass, 1.0, 1.4, 2.5)
+                                    : spin_stability(L, 0.5 * L.k_per_mass, 0.5, 0.7, 5.0);
+        s.K += spin.K;
+        s.G += spin.G;
+      }
       return 12 * (s.K + 2 * s.G) > DampingLimit::kBound;
     };
-    for (const PairLaw& L : table_) damping_limit_ = damping_limit_ || crowds(L);
-    for (const PairLaw& L : wall_table_) damping_limit_ = damping_limit_ || crowds(L);
+    for (const PairLaw& L : table_) damping_limit_ = damping_limit_ || crowds(L, false);
+    for (const PairLaw& L : wall_table_) damping_limit_ = damping_limit_ || crowds(L, true);
     // A Bridges law's e falls without bound as impacts get faster: any damping can occur.
     if (velocity_dependent_) damping_limit_ = true;
   }
