@@ -348,15 +348,10 @@ end = 0.25
   EXPECT_NEAR(floor / weight, 1.0, 1e-6);
 }
 
-TEST(HardCases, StronglyDampedFrictionalPileComesToRestAtFiveStepsPerContact) {
-  // The clogging scene's contact (e = 0.1, mu = 0.5 on beads and walls) at N_c = 5, in a pile
-  // six beads wide in a closed box: beads with several contacts at once, walls among them. Each
-  // contact alone is stable, but their summed dashpots are not (DampingLimit.hpp): without the
-  // limit this pile never settles; after 0.4 s every bead still moves at ~1 mm/s (median
-  // 1.5e-3 m/s), rattling at the step's frequency. A pile of frictional beads under gravity must
-  // reach static equilibrium. Without rolling resistance a bead on top may roll on, so the test
-  // asks 90 % of the beads, not all, to be at rest.
-  const char* pile = R"(
+// A pile of 300 beads in a closed box six beads wide at the clogging scene's contact (e = 0.1,
+// N_c = 5), settling for 0.4 s; `friction`: the species' friction keys, one per line.
+std::string pile_case(const std::string& friction) {
+  return R"(
 seed = 3
 modules = ["contact", "gravity"]
 [domain]
@@ -368,9 +363,7 @@ density = 2500.0
 radius = 0.0005
 t_c = 1.0e-4
 e = 0.1
-mu_s = 0.5
-mu_d = 0.5
-[particles]
+)" + friction + R"([particles]
 init = "random"
 count = 300
 [gravity]
@@ -379,7 +372,17 @@ g = [0.0, 0.0, -9.81]
 n_c = 5
 end = 0.4
 )";
-  auto sim = make_sim(pile);
+}
+
+TEST(HardCases, StronglyDampedFrictionalPileComesToRestAtFiveStepsPerContact) {
+  // The clogging scene's contact (e = 0.1, mu = 0.5 on beads and walls) at N_c = 5, in a pile
+  // six beads wide in a closed box: beads with several contacts at once, walls among them. Each
+  // contact alone is stable, but their summed dashpots are not (DampingLimit.hpp): without the
+  // limit this pile never settles; after 0.4 s every bead still moves at ~1 mm/s (median
+  // 1.5e-3 m/s), rattling at the step's frequency. A pile of frictional beads under gravity must
+  // reach static equilibrium. Without rolling resistance a bead on top may roll on, so the test
+  // asks 90 % of the beads, not all, to be at rest.
+  auto sim = make_sim(pile_case("mu_s = 0.5\nmu_d = 0.5\n"));
   sim->setup();
   double worst = 0;
   while (sim->time < 0.4 - 0.5 * sim->dt) {
@@ -402,30 +405,8 @@ end = 0.4
 // twisting resistance a bead on the floor keeps any spin about its contact normal). Returns the
 // fastest bead's speed and rim speed (|omega| a) after 0.4 s, in units of sqrt(g a).
 std::pair<double, double> rolling_pile(double mu, double mu_r, double eta_r) {
-  const std::string pile = R"(
-seed = 3
-modules = ["contact", "gravity"]
-[domain]
-lo = [0.0, 0.0, 0.0]
-hi = [0.006, 0.006, 0.02]
-boundary = ["wall", "wall", "wall"]
-[[species]]
-density = 2500.0
-radius = 0.0005
-t_c = 1.0e-4
-e = 0.1
-mu_s = )" + std::to_string(mu) + "\nmu_d = " + std::to_string(mu) + "\nmu_r = " + std::to_string(mu_r) +
-                           "\nmu_o = " + std::to_string(mu_r) + "\neta_r = " + std::to_string(eta_r) + R"(
-[particles]
-init = "random"
-count = 300
-[gravity]
-g = [0.0, 0.0, -9.81]
-[time]
-n_c = 5
-end = 0.4
-)";
-  auto sim = make_sim(pile);
+  auto key = [](const char* name, double value) { return std::string(name) + " = " + std::to_string(value) + "\n"; };
+  auto sim = make_sim(pile_case(key("mu_s", mu) + key("mu_d", mu) + key("mu_r", mu_r) + key("mu_o", mu_r) + key("eta_r", eta_r)));
   sim->setup();
   while (sim->time < 0.4 - 0.5 * sim->dt) sim->step();
   const auto& p = sim->particles;
