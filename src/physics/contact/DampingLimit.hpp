@@ -15,8 +15,9 @@
 // (LinearSpringDashpot::stability) and w_c = m* (1/m_i + 1/sqrt(m_i m_j)) (1 for a wall; 1 for
 // equal beads), plus, for contacts that resist rolling, their torque springs on i's spin
 // (LinearSpringDashpot::spin_stability: per i's own moment of inertia, which is what a crowded
-// bead's spin feels, not the rolling oscillator's 3.5x larger one). Then every row sum of the step's matrix is at most B < 4 (Gershgorin, in the
-// mass-weighted norm, as Lubrication's many-film scaling): no mode can grow, however many
+// bead's spin feels, not the rolling oscillator's 3.5x larger one). Then every row sum of the
+// step's matrix is at most B < 4 (Gershgorin, in the mass-weighted norm, as Lubrication's
+// many-film scaling): no mode can grow, however many
 // contacts. Where the plain sum was already below B (every binary collision, any dilute
 // gas) s = 1 and the force is bit for bit the unlimited one, so e and t_c of a binary collision
 // stay exact. Only the dashpots of crowded particles lose part of their damping, and only the

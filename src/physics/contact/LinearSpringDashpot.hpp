@@ -287,7 +287,8 @@ class LinearSpringDashpot {
     return {(roll.k + twist.k) * dt_ * dt_ * inv_inertia, (roll.c + twist.c) * dt_ * inv_inertia};
   }
   // The law with its dashpots (normal, tangential, rolling and twisting) scaled by s; springs
-  // and the exact scheme's onset and exit forms unchanged.
+  // and the exact scheme's onset and exit forms unchanged (the torque springs' discrete
+  // stiffness follows their oscillator's decay rate, so it moves with s by O((w0 dt)^2)).
   static PairLaw damped(const PairLaw& L, double s) {
     PairLaw d = L;
     d.gamma_eff *= s;
