@@ -45,7 +45,9 @@ def snapshot(path):
 
 
 def wake(s, cells=128):
-    """Wake wave vector (kx, ky), its wavelength and pitch angle (degrees) of one snapshot."""
+    """Wake wave vector (kx, ky), its wavelength and pitch angle (degrees) of one snapshot.
+    cells: bins per axis, or (bins along x, bins along y) for an elongated box."""
+    cx, cy = (cells, cells) if np.isscalar(cells) else cells
     x, y = s["position"][:, 0], s["position"][:, 1]
     Lx, Ly = s["L"][0], s["L"][1]
     S = s["offset"] - Lx * math.floor(s["offset"] / Lx)
@@ -53,10 +55,10 @@ def wake(s, cells=128):
         S -= Lx
     xs = (x - S * (y - s["lo"][1]) / Ly - s["lo"][0]) % Lx
     ys = (y - s["lo"][1]) % Ly
-    sigma, _, _ = np.histogram2d(xs, ys, bins=cells, range=[[0, Lx], [0, Ly]], weights=s["mass"])
+    sigma, _, _ = np.histogram2d(xs, ys, bins=(cx, cy), range=[[0, Lx], [0, Ly]], weights=s["mass"])
     power = np.abs(np.fft.fft2(sigma - sigma.mean())) ** 2
-    m = np.fft.fftfreq(cells, 1.0 / cells)[:, None]
-    n = np.fft.fftfreq(cells, 1.0 / cells)[None, :]
+    m = np.fft.fftfreq(cx, 1.0 / cx)[:, None]
+    n = np.fft.fftfreq(cy, 1.0 / cy)[None, :]
     kx = 2 * np.pi * m / Lx + 0 * n
     ky = 2 * np.pi * n / Ly - kx * S / Ly
     flip = ky < 0  # P(k) = P(-k): fold onto ky > 0

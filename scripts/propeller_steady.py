@@ -3,7 +3,7 @@ Lees-Edwards boundaries, started hot at the unperturbed ring's steady dispersion
 scripts/ring_steady_state.py), with criteria that measure what the thesis means.
 
    /usr/bin/python3 scripts/propeller_steady.py [--e 0.5 0.7 0.8 0.9] [--seeds 1 2] [--orbits 3]
-                     [--sigma 0.0011 0.023 0.035 0.056] [--ly 2000] [--lx 18000] [--radius 2] [--lanes 2] [--table-only]
+                     [--sigma 0.0011 0.023 0.035 0.056] [--ly 2000] [--lx 18000] [--radius 2] [--tc 1] [--lanes 2] [--table-only]
                      [--out DIR]
 
 Criteria, per snapshot (every T0/10) after the first orbit (the propeller forms in ~1 orbit and
@@ -47,6 +47,8 @@ ap.add_argument("--lx", type=float, default=18000.0,
                 help="azimuthal box length (m; the case's 18 km); the count scales to keep the optical depth")
 ap.add_argument("--radius", type=float, default=2.0,
                 help="particle radius (m; the case's 2 m); the count scales to keep the optical depth")
+ap.add_argument("--tc", type=float, default=None,
+                help="contact duration (s; the case's 1 s); 1 m particles at e >= 0.95 need 0.5 s")
 ap.add_argument("--lanes", type=int, default=2)
 ap.add_argument("--table-only", action="store_true")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-steady"))
@@ -86,6 +88,8 @@ def simulate(job):
     if a.ly != 2000.0 or a.lx != 18000.0 or a.radius != 2.0:  # cases/propeller: 30,000 particles of 2 m in 18 km x 2 km
         sets += [f"domain.lo=[{-a.lx / 2}, {-a.ly / 2}, -10.0]", f"domain.hi=[{a.lx / 2}, {a.ly / 2}, 10.0]",
                  f"species.0.radius={a.radius}", f"particles.count={round(30000 * a.ly / 2000 * a.lx / 18000 * (2.0 / a.radius) ** 2)}"]
+    if a.tc is not None:
+        sets += [f"species.0.t_c={a.tc}"]
     cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml"), "--out", d, "--force"]
     for s in sets:
         cmd += ["--set", s]

@@ -1,0 +1,256 @@
+#!/usr/bin/python3
+"""Propellers in a self-gravitating ring (issue 44, item 5): when do the wakes erase a propeller?
+
+   /usr/bin/python3 scripts/propeller_gravity.py [--ratio 2 1 0.5] [--seeds 2019] [--orbits 1.5]
+                     [--from 1.0] [--to ORBITS] [--ly-rh 8] [--lanes 2] [--ranks 1] [--table-only] [--out DIR]
+
+Michikoshi & Kokubo's question: a moonlet of Hill radius r_H opens a propeller when r_H exceeds
+the Toomre critical wavelength lambda_cr = 4 pi^2 G Sigma / Omega0^2; below that, do the wakes
+fill the gaps? Here r_H = 60 m is fixed and Sigma is set for r_H / lambda_cr = --ratio
+(lambda_cr = 30, 60, 120 m: Sigma = 197, 393, 787 kg/m^2).
+
+The ring is cases/gravity-wakes' (Bridges restitution, 400 kg/m^3, dN/da ~ a^-3, 3D with
+Saturn's vertical tide) with radii 2-4 m instead of 1-4 m (3.3x fewer particles for the same
+Sigma; lambda_cr stays >= 3.7 of the largest diameters); the moonlet has the particles' density
+(R = 46 m). Box: 60 r_H azimuthally, --ly-rh r_H radially, +-100 m in z (open), modified
+Lees-Edwards boundaries (LE2, the moonlet-free copy, is the unperturbed self-gravitating ring
+and the reference), the multi-rate integrator, the mesh at 5 m (split 12.5 m). The start is
+cold enough (Toomre Q ~ 0.7) that the wakes form within the first orbit.
+
+Criteria over the snapshots from --from orbits on (every T0 / 20):
+  - gap depth D = 1 - M_LE1(G) / M_LE2(G) (mass), G downstream (x sign(y) in 5-25 r_H) at
+    |y| in 1.5-2.5 r_H; its null D_null = 1 - M_LE2(G) / M_LE2(G'), G' the mirror region
+    upstream; "a gap" when D exceeds 3 x the null's frame-to-frame scatter;
+  - the radial profile of the deficit 1 - Sigma_LE1(|y|) / Sigma_LE2(|y|) downstream and its
+    centroid (r_H);
+  - the wakes: the unperturbed copy's dominant wavelength (radial cuts, 2D FFT of Sigma) against
+    lambda_cr, and Toomre's Q of LE2;
+  - the propeller's height: the mass-weighted rms z of LE1 in the gap region (1-3 r_H radially)
+    per 1 r_H of downstream distance, its maximum against Hoffmann, Seiss, Salo & Spahn's N-body
+    boxes (maximal propeller heights ~0.6-0.8 r_H) and LE2's (the unperturbed ring's).
+Writes runs.csv, table.csv, maps.png into DIR (default runs/propeller-gravity) and cost.json.
+"""
+import argparse, glob, json, math, os, subprocess, sys, time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.join(ROOT, "python"))
+from cassini_tools import G, Run
+
+SATURN, R0 = 5.68e26, 1.2995e8         # cases/gravity-wakes
+OMEGA0 = math.sqrt(G * SATURN / R0 ** 3)
+T0 = 2 * math.pi / OMEGA0
+R_HILL = 60.0
+M_MOON = 3 * SATURN * (R_HILL / R0) ** 3
+RHO = 400.0
+R_MOON = (3 * M_MOON / (4 * math.pi * RHO)) ** (1 / 3)
+A_MIN, A_MAX = 2.0, 4.0
+MEAN_A3 = (A_MAX - A_MIN) / (0.5 * (A_MIN ** -2 - A_MAX ** -2))  # dN/da ~ a^-3
+MEAN_MASS = 4 / 3 * math.pi * RHO * MEAN_A3
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--ratio", type=float, nargs="*", default=[2.0, 1.0, 0.5], help="r_H / lambda_cr")
+ap.add_argument("--seeds", type=int, nargs="*", default=[2019])
+ap.add_argument("--orbits", type=float, default=1.5)
+ap.add_argument("--from", dest="start", type=float, default=1.0, help="orbits: the analysis window's start")
+ap.add_argument("--to", dest="end", type=float, default=None, help="orbits: the analysis window's end (default: the run's)")
+ap.add_argument("--ly-rh", type=float, default=8.0, help="radial box width in r_H")
+ap.add_argument("--lanes", type=int, default=2)
+ap.add_argument("--ranks", type=int, default=1,
+                help="ranks per run; a run stopped part-way (killed) continues from its last snapshot, bitwise, in DIR/NAME-partK")
+ap.add_argument("--table-only", action="store_true")
+ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-gravity"))
+a = ap.parse_args()
+os.makedirs(a.out, exist_ok=True)
+cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
+mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", str(a.ranks)]
+LX, LY = 60 * R_HILL, a.ly_rh * R_HILL
+
+
+def sigma_for(ratio):
+    lam = R_HILL / ratio
+    return lam * OMEGA0 ** 2 / (4 * math.pi ** 2 * G)
+
+
+def name(ratio, seed):
+    return f"ratio{ratio:g}_s{seed}"
+
+
+def parts(ratio, seed):
+    """A run's directory and its continuations, in order."""
+    d = os.path.join(a.out, name(ratio, seed))
+    more = sorted(glob.glob(d + "-part*"), key=lambda p: int(p.rsplit("-part", 1)[1]))
+    return [p for p in [d] + more if os.path.isdir(p)]
+
+
+def frames_of(ratio, seed, start, end=None):
+    out = {}
+    for p in parts(ratio, seed):
+        for f in Run(p).frames(start=start, end=end):
+            out[round(f.time, 3)] = f  # a continuation's first frame repeats its restart frame
+    return [out[t] for t in sorted(out)]
+
+
+def simulate(job):
+    ratio, seed = job
+    d = os.path.join(a.out, name(ratio, seed))
+    have = parts(ratio, seed)
+    last = have[-1] if have else None
+    if last and os.path.exists(os.path.join(last, "summary.json")) and Run(last).summary.get("status") in ("completed", "stopped by a guard"):
+        return 0.0
+    sigma = sigma_for(ratio)
+    count = round(sigma * LX * LY / MEAN_MASS)
+    q_start = 0.7  # Toomre Q of the start: 3.36 G Sigma Q / Omega0 per radial component
+    sets = ['modules=["contact","hill","self-gravity","moonlet"]', f"seed={seed}",
+            f"moonlet.mass={M_MOON:.6g}", f"moonlet.radius={R_MOON:.4f}",
+            f"domain.lo=[{-LX / 2}, {-LY / 2}, -100.0]", f"domain.hi=[{LX / 2}, {LY / 2}, 100.0]",
+            "domain.modified_lees_edwards=true", 'time.integrator="multirate"', "self_gravity.every=1",
+            f"self_gravity.grid=[{round(LX / 5)}, {round(LY / 5)}, 80]",
+            f"species.0.radius_min={A_MIN}", f"species.0.radius_max={A_MAX}", f"particles.count={count}",
+            f"particles.velocity_sigma={3.36 * G * sigma * q_start / OMEGA0:.4g}",
+            "species.0.t_c=8.0",  # the moonlet's impacts, ~0.03 m/s: peak overlaps v t_c / pi < 5 % of 2 m
+            "contact.skin=3.0",  # the moonlet flings particles at ~its escape speed: 1 m rebuilt every ~30 s
+            f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 20:.4f}",
+            f"output.observe_every={T0 / 100:.4f}", "output.dump_every=0", "output.progress_every=600"]
+    out, restart = d, []
+    snaps = Run(last).frames() if last else []
+    if snaps and snaps[-1].time > 0:  # a run killed part-way: continue it
+        out = f"{d}-part{len(have)}"
+        restart = ["--restart", snaps[-1].path]
+    cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "gravity-wakes", "case.toml"), "--out", out, "--force"] + restart
+    for s in sets:
+        cmd += ["--set", s]
+    t = time.time()
+    with open(out + ".log", "w") as log:
+        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
+    if code not in (0, 3):
+        raise RuntimeError(f"{name(ratio, seed)}: cassini exited with {code}; see {out}.log")
+    print(f"{os.path.basename(out)}: {time.time() - t:.0f} s on {a.ranks} rank(s){' (stopped by a guard)' if code == 3 else ''}", flush=True)
+    return a.ranks * (time.time() - t)
+
+
+if not a.table_only:
+    jobs = [(r, s) for s in a.seeds for r in sorted(a.ratio)]  # the densest (costliest) ring first
+    with ThreadPoolExecutor(a.lanes) as pool:
+        cpu = sum(pool.map(simulate, jobs))
+    prev = json.load(open(os.path.join(a.out, "cost.json"))) if os.path.exists(os.path.join(a.out, "cost.json")) else {}
+    json.dump({"cpu_seconds": prev.get("cpu_seconds", 0) + cpu}, open(os.path.join(a.out, "cost.json"), "w"))
+
+# ---- analysis ----------------------------------------------------------------------------------
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from gravity_wakes import wake  # noqa: E402  (the wakes' wave vector, as for cases/gravity-wakes)
+
+Y_EDGES = np.linspace(0, LY / 2, int(round(a.ly_rh * 4)) + 1)  # |y| bins of r_H / 4
+Z_EDGES = np.arange(-30, 31, 1.0)  # downstream distance (r_H) for the height profile
+
+
+def measure(frame):
+    s = frame.read(columns=["position", "velocity", "mass", "radius", "le_copy"])
+    x, v, m, c = s.position, s.velocity, s.mass.ravel(), s.le_copy.ravel()
+    one, two = c == 0, c == 1
+    down = x[:, 0] * np.sign(x[:, 1]) / R_HILL  # downstream distance in r_H (positive past the moonlet)
+    ay = np.abs(x[:, 1]) / R_HILL
+    band = (ay > 1.5) & (ay < 2.5)
+    gap, mirror = band & (down > 5) & (down < 25), band & (down < -5) & (down > -25)
+    m1, m2, m2m = m[gap & one].sum(), m[gap & two].sum(), m[mirror & two].sum()
+    ds = (down > 5) & (down < 25)
+    h1, _ = np.histogram(ay[one & ds] * R_HILL, bins=Y_EDGES, weights=m[one & ds])
+    h2, _ = np.histogram(ay[two & ds] * R_HILL, bins=Y_EDGES, weights=m[two & ds])
+    # The propeller's height: rms z near the moonlet (1-4 r_H radially, 2-10 r_H downstream)
+    near = (ay > 1) & (ay < 4) & (down > 2) & (down < 10)
+    z_rms = lambda sel: float(np.sqrt(np.average(x[sel, 2] ** 2, weights=m[sel]))) if sel.any() else float("nan")
+    # ... and its profile downstream (1 r_H bins), gap region 1-3 r_H: sums of m z^2 and m
+    gapz = (ay > 1) & (ay < 3)
+    zsum = {k: (np.histogram(down[sel], bins=Z_EDGES, weights=m[sel] * x[sel, 2] ** 2)[0],
+                np.histogram(down[sel], bins=Z_EDGES, weights=m[sel])[0]) for k, sel in (("z1", gapz & one), ("z2", gapz & two))}
+    unperturbed = {"position": x[two], "mass": m[two], "radius": s.radius.ravel()[two], "offset": s.offset,
+                   "L": s.lengths, "lo": s.origin}
+    _, lam, pitch = wake(unperturbed, cells=(int(LX / 10), int(LY / 5)))
+    mid = np.mean(m[two] * v[two, 1]) / np.mean(m[two])
+    sigma_y = math.sqrt(np.average((v[two, 1] - mid) ** 2, weights=m[two]))
+    Sigma = m[two].sum() / (LX * LY)
+    return dict(time=s.time, depth=1 - m1 / m2, null=1 - m2 / m2m, h1=h1, h2=h2,
+                z1=z_rms(near & one), z2=z_rms(near & two), z1_max=float(np.abs(x[near & one, 2]).max()) if (near & one).any() else float("nan"),
+                wavelength=lam, pitch=pitch, Q=sigma_y * OMEGA0 / (3.36 * G * Sigma), Sigma=Sigma,
+                n1=int(one.sum()), n2=int(two.sum()), zsum=zsum)
+
+
+rows_out, table = [], []
+y_mid = 0.5 * (Y_EDGES[1:] + Y_EDGES[:-1])
+profiles = {}
+for ratio in sorted(a.ratio, reverse=True):
+    per_seed = []
+    for seed in a.seeds:
+        frames = frames_of(ratio, seed, (a.start - 0.025) * T0, None if a.end is None else (a.end + 0.025) * T0)  # snapshots fall on steps
+        if not frames:
+            continue
+        rs = [measure(f) for f in frames]
+        h1, h2 = sum(r["h1"] for r in rs), sum(r["h2"] for r in rs)
+        deficit = 1 - h1 / np.maximum(h2, 1e-300)
+        profiles[(ratio, seed)] = deficit
+        pos = np.clip(deficit, 0, None)
+        lam_cr = 4 * math.pi ** 2 * G * np.mean([r["Sigma"] for r in rs]) / OMEGA0 ** 2
+        run = dict(ratio=ratio, seed=seed, frames=len(rs), t_from=rs[0]["time"] / T0, t_to=rs[-1]["time"] / T0,
+                   lambda_cr=lam_cr, rH_over_lambda_cr=R_HILL / lam_cr,
+                   depth=float(np.mean([r["depth"] for r in rs])), depth_sd=float(np.std([r["depth"] for r in rs], ddof=1)) if len(rs) > 1 else float("nan"),
+                   null=float(np.mean([r["null"] for r in rs])), null_sd=float(np.std([r["null"] for r in rs], ddof=1)) if len(rs) > 1 else float("nan"),
+                   centroid_rH=float(np.sum(y_mid * pos) / np.sum(pos) / R_HILL) if pos.sum() > 0 else float("nan"),
+                   wavelength=float(np.mean([r["wavelength"] for r in rs])), pitch=float(np.mean([r["pitch"] for r in rs])),
+                   Q=float(np.mean([r["Q"] for r in rs])),
+                   z_le1_rH=float(np.nanmean([r["z1"] for r in rs])) / R_HILL, z_le2_rH=float(np.nanmean([r["z2"] for r in rs])) / R_HILL,
+                   z_le1_max_rH=float(np.nanmax([r["z1_max"] for r in rs])) / R_HILL,
+                   le1_over_le2=float(np.mean([r["n1"] / r["n2"] for r in rs])))
+        zp = {k: np.sqrt(sum(r["zsum"][k][0] for r in rs) / np.maximum(sum(r["zsum"][k][1] for r in rs), 1e-300)) / R_HILL
+              for k in ("z1", "z2")}
+        down_mid = 0.5 * (Z_EDGES[1:] + Z_EDGES[:-1])
+        after = down_mid > 0
+        run["height_max_rH"] = float(zp["z1"][after].max())
+        run["height_at_rH"] = float(down_mid[after][np.argmax(zp["z1"][after])])
+        run["height_far_rH"] = float(np.median(zp["z2"]))
+        run["gap"] = bool(run["depth"] > 3 * run["null_sd"])
+        rows_out.append(run)
+        per_seed.append(run)
+    if per_seed:
+        table.append(per_seed)
+
+keys = ["ratio", "seed", "frames", "t_from", "t_to", "lambda_cr", "rH_over_lambda_cr", "depth", "depth_sd", "null", "null_sd", "gap",
+        "centroid_rH", "wavelength", "pitch", "Q", "z_le1_rH", "z_le2_rH", "z_le1_max_rH", "height_max_rH", "height_at_rH", "height_far_rH", "le1_over_le2"]
+with open(os.path.join(a.out, "runs.csv"), "w") as f:
+    f.write(",".join(keys) + "\n")
+    for r in rows_out:
+        f.write(",".join(f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k]) for k in keys) + "\n")
+for r in rows_out:
+    print(f"r_H/lambda_cr {r['rH_over_lambda_cr']:.2f} (lambda_cr {r['lambda_cr']:.0f} m) seed {r['seed']}: orbits {r['t_from']:.2f}-{r['t_to']:.2f} "
+          f"({r['frames']} frames); gap depth D = {r['depth']:.3f} (frame sd {r['depth_sd']:.3f}), null {r['null']:+.3f} "
+          f"(sd {r['null_sd']:.3f}) -> {'gap' if r['gap'] else 'no gap'}; deficit centroid {r['centroid_rH']:.2f} r_H; "
+          f"wakes {r['wavelength']:.0f} m = {r['wavelength'] / r['lambda_cr']:.2f} lambda_cr, pitch {r['pitch']:.0f} deg, Q {r['Q']:.2f}; "
+          f"rms z near the moonlet {r['z_le1_rH']:.3f} r_H (unperturbed {r['z_le2_rH']:.3f}), max |z| {r['z_le1_max_rH']:.2f} r_H; "
+          f"height (rms z at 1-3 r_H) peaks at {r['height_max_rH']:.3f} r_H, {r['height_at_rH']:.1f} r_H downstream (unperturbed {r['height_far_rH']:.3f}); "
+          f"LE1/LE2 {r['le1_over_le2']:.3f}")
+
+if rows_out:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    runs = [r for r in rows_out if r["seed"] == a.seeds[0]]
+    fig, ax = plt.subplots(len(runs) + 1, 1, figsize=(11, 2.2 * len(runs) + 3), squeeze=False)
+    for i, r in enumerate(runs):
+        last = frames_of(r["ratio"], r["seed"], 0)[-1].read(columns=["position", "mass", "le_copy"], copy=0)
+        x = last.position
+        h, _, _ = np.histogram2d(x[:, 0] / R_HILL, x[:, 1] / R_HILL, bins=[int(LX / 20), int(LY / 10)],
+                                 range=[[-LX / 2 / R_HILL, LX / 2 / R_HILL], [-LY / 2 / R_HILL, LY / 2 / R_HILL]], weights=last.mass.ravel())
+        ax[i, 0].imshow(h.T / h.mean(), origin="lower", extent=[-LX / 2 / R_HILL, LX / 2 / R_HILL, -LY / 2 / R_HILL, LY / 2 / R_HILL],
+                        aspect="auto", cmap="gray", vmin=0, vmax=2.5)
+        ax[i, 0].set_title(f"r_H / lambda_cr = {r['rH_over_lambda_cr']:.2f}: LE1 at {last.time / T0:.2f} orbits", fontsize=9)
+        ax[i, 0].set_ylabel("y / r_H")
+    ax[len(runs) - 1, 0].set_xlabel("x / r_H")
+    for r in runs:
+        ax[-1, 0].plot(y_mid / R_HILL, profiles[(r["ratio"], r["seed"])], "o-", label=f"r_H / lambda_cr = {r['rH_over_lambda_cr']:.2f}")
+    ax[-1, 0].axhline(0, color="k", lw=0.5)
+    ax[-1, 0].set_xlabel("|y| / r_H (5-25 r_H downstream)")
+    ax[-1, 0].set_ylabel("deficit 1 - Sigma_LE1 / Sigma_LE2")
+    ax[-1, 0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(a.out, "maps.png"), dpi=90)
