@@ -177,7 +177,7 @@ def measure(frame):
                 n1=int(one.sum()), n2=int(two.sum()), zsum=zsum)
 
 
-rows_out, table = [], []
+rows_out, table, series = [], [], []
 y_mid = 0.5 * (Y_EDGES[1:] + Y_EDGES[:-1])
 profiles = {}
 for ratio in sorted(a.ratio, reverse=True):
@@ -187,6 +187,8 @@ for ratio in sorted(a.ratio, reverse=True):
         if not frames:
             continue
         rs = [measure(f) for f in frames]
+        series += [(ratio, seed, r["time"] / T0, r["depth"], r["null"], r["wavelength"] / (4 * math.pi ** 2 * G * r["Sigma"] / OMEGA0 ** 2),
+                    r["Q"], r["z1"] / R_HILL, r["z2"] / R_HILL) for r in rs]
         h1, h2 = sum(r["h1"] for r in rs), sum(r["h2"] for r in rs)
         deficit = 1 - h1 / np.maximum(h2, 1e-300)
         profiles[(ratio, seed)] = deficit
@@ -221,6 +223,10 @@ with open(os.path.join(a.out, "runs.csv"), "w") as f:
     f.write(",".join(keys) + "\n")
     for r in rows_out:
         f.write(",".join(f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k]) for k in keys) + "\n")
+with open(os.path.join(a.out, "series.csv"), "w") as f:  # per snapshot: how the gap and the wakes develop
+    f.write("ratio,seed,orbits,depth,null,wavelength_over_lambda_cr,Q,z_rms_le1_rH,z_rms_le2_rH\n")
+    for row in series:
+        f.write(",".join(f"{v:.4g}" for v in row) + "\n")
 for r in rows_out:
     print(f"r_H/lambda_cr {r['rH_over_lambda_cr']:.2f} (lambda_cr {r['lambda_cr']:.0f} m) seed {r['seed']}: orbits {r['t_from']:.2f}-{r['t_to']:.2f} "
           f"({r['frames']} frames); gap depth D = {r['depth']:.3f} (frame sd {r['depth_sd']:.3f}), null {r['null']:+.3f} "
@@ -235,7 +241,7 @@ if rows_out:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     runs = [r for r in rows_out if r["seed"] == a.seeds[0]]
-    fig, ax = plt.subplots(len(runs) + 1, 1, figsize=(11, 2.2 * len(runs) + 3), squeeze=False)
+    fig, ax = plt.subplots(len(runs) + 2, 1, figsize=(11, 2.2 * len(runs) + 6), squeeze=False)
     for i, r in enumerate(runs):
         last = frames_of(r["ratio"], r["seed"], 0)[-1].read(columns=["position", "mass", "le_copy"], copy=0)
         x = last.position
@@ -247,10 +253,17 @@ if rows_out:
         ax[i, 0].set_ylabel("y / r_H")
     ax[len(runs) - 1, 0].set_xlabel("x / r_H")
     for r in runs:
-        ax[-1, 0].plot(y_mid / R_HILL, profiles[(r["ratio"], r["seed"])], "o-", label=f"r_H / lambda_cr = {r['rH_over_lambda_cr']:.2f}")
-    ax[-1, 0].axhline(0, color="k", lw=0.5)
-    ax[-1, 0].set_xlabel("|y| / r_H (5-25 r_H downstream)")
-    ax[-1, 0].set_ylabel("deficit 1 - Sigma_LE1 / Sigma_LE2")
-    ax[-1, 0].legend(fontsize=8)
+        ax[-2, 0].plot(y_mid / R_HILL, profiles[(r["ratio"], r["seed"])], "o-", label=f"r_H / lambda_cr = {r['rH_over_lambda_cr']:.2f}")
+    ax[-2, 0].axhline(0, color="k", lw=0.5)
+    ax[-2, 0].set_xlabel("|y| / r_H (5-25 r_H downstream)")
+    ax[-2, 0].set_ylabel("deficit 1 - Sigma_LE1 / Sigma_LE2")
+    ax[-2, 0].legend(fontsize=8)
+    for r in runs:
+        rows = [row for row in series if row[0] == r["ratio"] and row[1] == r["seed"]]
+        ax[-1, 0].plot([row[2] for row in rows], [row[3] for row in rows], "o-", ms=3, label=f"D, r_H / lambda_cr = {r['rH_over_lambda_cr']:.2f}")
+        ax[-1, 0].plot([row[2] for row in rows], [row[4] for row in rows], ":", color=ax[-1, 0].lines[-1].get_color(), label="null")
+    ax[-1, 0].set_xlabel("orbits (the analysis window)")
+    ax[-1, 0].set_ylabel("gap depth D")
+    ax[-1, 0].legend(fontsize=7, ncol=3)
     fig.tight_layout()
     fig.savefig(os.path.join(a.out, "maps.png"), dpi=90)
