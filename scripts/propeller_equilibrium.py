@@ -21,7 +21,7 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import Hill, Run, Snapshot
+from cassini_tools import Hill, Run, Snapshot, launch
 
 HILL = Hill({})  # cases/propeller: hill's default Saturn and orbit
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -73,19 +73,7 @@ def simulate(r):
         open(case, "w").write("\n".join(lines))
     else:
         sets += [f"species.0.e={r['e']}"]
-    cmd = mpirun + [cassini, case, "--out", d, "--force"]
-    for s in sets:
-        cmd += ["--set", s]
-    t = time.time()
-    with open(d + ".log", "w") as log:
-        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
-    cpu = time.time() - t
-    # A guard stop (exit 3: e.g. a ring heated beyond what t_c allows) is a result: its windows
-    # up to the stop are analysed. Anything else is a failure of the study.
-    if code not in (0, 3):
-        raise RuntimeError(f"{r['name']}: cassini exited with {code}; see {d}.log")
-    print(f"{r['name']}: {cpu:.0f} s{' (stopped by a guard: see its log)' if code == 3 else ''}", flush=True)
-    return cpu
+    return launch(mpirun + [cassini, case], d, sets, label=r["name"])[0]
 
 
 def dispersions(snap):

@@ -30,14 +30,14 @@ Criteria over the snapshots from --from orbits on (every T0 / 20):
     boxes (maximal propeller heights ~0.6-0.8 r_H) and LE2's (the unperturbed ring's).
 Writes runs.csv, table.csv, maps.png into DIR (default runs/propeller-gravity) and cost.json.
 """
-import argparse, glob, json, math, os, subprocess, sys, time
+import argparse, glob, json, math, os, sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import G, Run
+from cassini_tools import G, Run, launch
 
 SATURN, R0 = 5.68e26, 1.2995e8         # cases/gravity-wakes
 OMEGA0 = math.sqrt(G * SATURN / R0 ** 3)
@@ -114,21 +114,14 @@ def simulate(job):
             "contact.skin=3.0",  # the moonlet flings particles at ~its escape speed: 1 m rebuilt every ~30 s
             f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 20:.4f}",
             f"output.observe_every={T0 / 100:.4f}", "output.dump_every=0", "output.progress_every=600"]
-    out, restart = d, []
+    out, restart = d, None
     snaps = Run(last).frames() if last else []
     if snaps and snaps[-1].time > 0:  # a run killed part-way: continue it
         out = f"{d}-part{len(have)}"
-        restart = ["--restart", snaps[-1].path]
-    cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "gravity-wakes", "case.toml"), "--out", out, "--force"] + restart
-    for s in sets:
-        cmd += ["--set", s]
-    t = time.time()
-    with open(out + ".log", "w") as log:
-        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
-    if code not in (0, 3):
-        raise RuntimeError(f"{name(ratio, seed)}: cassini exited with {code}; see {out}.log")
-    print(f"{os.path.basename(out)}: {time.time() - t:.0f} s on {a.ranks} rank(s){' (stopped by a guard)' if code == 3 else ''}", flush=True)
-    return a.ranks * (time.time() - t)
+        restart = snaps[-1].path
+    seconds, _ = launch(mpirun + [cassini, os.path.join(ROOT, "cases", "gravity-wakes", "case.toml")], out, sets,
+                        restart=restart, label=f"{os.path.basename(out)} on {a.ranks} rank(s)")
+    return a.ranks * seconds
 
 
 if not a.table_only:

@@ -21,14 +21,14 @@ the ring is already at its steady state), then per run over half-orbit blocks, t
   - the thesis's dv_y (std of v_y over all of LE1), for comparison with earlier results.
 Writes runs.csv, table.csv, summary.json, criteria.png into DIR (default runs/propeller-steady).
 """
-import argparse, json, math, os, subprocess, sys, time
+import argparse, json, math, os, sys, time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import Hill, Run
+from cassini_tools import Hill, Run, launch
 
 HILL = Hill({})
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -90,16 +90,7 @@ def simulate(job):
                  f"species.0.radius={a.radius}", f"particles.count={round(30000 * a.ly / 2000 * a.lx / 18000 * (2.0 / a.radius) ** 2)}"]
     if a.tc is not None:
         sets += [f"species.0.t_c={a.tc}"]
-    cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml"), "--out", d, "--force"]
-    for s in sets:
-        cmd += ["--set", s]
-    t = time.time()
-    with open(d + ".log", "w") as log:
-        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
-    if code not in (0, 3):
-        raise RuntimeError(f"{name(e, seed)}: cassini exited with {code}; see {d}.log")
-    print(f"{name(e, seed)}: {time.time() - t:.0f} s{' (stopped by a guard)' if code == 3 else ''}", flush=True)
-    return time.time() - t
+    return launch(mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml")], d, sets)[0]
 
 
 def measure(frame):

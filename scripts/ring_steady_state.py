@@ -27,14 +27,14 @@ the critical e_cr(tau), ~0.63 for tau -> 0; above it sigma grows exponentially.
 Writes series.csv (orbit means), steady.csv, summary.json and sigma.png into DIR (default
 runs/ring-steady).
 """
-import argparse, json, math, os, shutil, subprocess, sys, time
+import argparse, json, math, os, shutil, sys, time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import Hill, Run
+from cassini_tools import Hill, Run, launch
 
 HILL = Hill({})  # cases/ring-section and cases/propeller: hill's default Saturn and orbit
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -127,20 +127,12 @@ def advance(job):
     os.makedirs(os.path.dirname(seg), exist_ok=True)
     if os.path.exists(seg):  # an interrupted segment of this study's own: it is redone
         shutil.rmtree(seg)
-    cmd = mpirun + [cassini, os.path.join(ROOT, "cases", "ring-section", "case.toml"), "--out", seg]
-    if done:
-        frames = Run(done[-1]).frames()
-        cmd += ["--restart", frames[-1].path]
-    for s in system(dims, start, e, seed) + output(end):
-        cmd += ["--set", s]
-    t = time.time()
-    with open(seg + ".log", "w") as log:
-        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
-    if code not in (0, 3):  # 3: a guard stopped it (a runaway past what t_c allows): a result
-        raise RuntimeError(f"{run}: cassini exited with {code}; see {seg}.log")
-    if code == 0 and not Run(seg).frames():
+    restart = Run(done[-1]).frames()[-1].path if done else None
+    seconds, stopped = launch(mpirun + [cassini, os.path.join(ROOT, "cases", "ring-section", "case.toml")], seg,
+                              system(dims, start, e, seed) + output(end), restart=restart, force=False, label=run)
+    if not stopped and not Run(seg).frames():
         raise RuntimeError(f"{run}: {seg} ended without a snapshot to continue from")
-    return time.time() - t
+    return seconds
 
 
 def series(run):

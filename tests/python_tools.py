@@ -23,7 +23,7 @@ import numpy as np
 cassini, source, work = (os.path.abspath(a) for a in sys.argv[1:4])
 mpi = [sys.argv[4], "-n", "2", *sys.argv[5:]]
 sys.path.insert(0, os.path.join(source, "python"))
-from cassini_tools import Run, RunError, G  # noqa: E402
+from cassini_tools import Run, RunError, G, launch  # noqa: E402
 
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
@@ -105,6 +105,23 @@ for label, thunk, needle in (
         check(f"{label} is refused", False, "no error")
     except RunError as e:
         check(f"{label} is refused naming it", needle in str(e), e)
+
+# launch(), the studies' way to run cassini: a continuation from step 50 ends where the
+# uninterrupted run did (restart exactness is the solver's; this checks launch passes --restart,
+# the overrides and --out), and a failed run is a RunError naming its log.
+gas_sets = ["time.end=2e-5", "output.snapshot_every=1e-5", "output.dump_every=0", "output.observe_every=2e-6"]
+seconds, stopped = launch([*mpi, cassini, f"{source}/cases/gas"], f"{work}/gas-cont", gas_sets, restart=frames[1].path)
+cont = Run(f"{work}/gas-cont").frames()
+end = cont[-1].read(columns=["id", "position"])
+ref = frames[-1].read(columns=["id", "position"])
+check("launch: a continuation from step 50 ends bitwise where the run did",
+      not stopped and os.path.exists(f"{work}/gas-cont.log") and [f.step for f in cont] == [100]  # not rerun from 0
+      and np.array_equal(end.position[np.argsort(end.id)], ref.position[np.argsort(ref.id)]), (stopped, [f.step for f in cont]))
+try:
+    launch([*mpi, cassini, f"{source}/cases/gas"], f"{work}/gas-bad", gas_sets + ["time.dt=-1"])
+    check("launch: a failed run is refused", False, "no error")
+except RunError as e:
+    check("launch: a failed run is a RunError naming its log", "gas-bad.log" in str(e), e)
 
 print(f"{len(failures)} failed")
 sys.exit(1 if failures else 0)

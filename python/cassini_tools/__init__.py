@@ -21,6 +21,8 @@ import json
 import math
 import os
 import re
+import subprocess
+import time
 import tomllib
 
 import numpy as np
@@ -50,6 +52,29 @@ def _h5py():
     except ImportError as e:  # the pyenv python first on PATH has none
         raise RunError("h5py is missing: run with Debian's /usr/bin/python3 (python3-h5py)") from e
     return h5py
+
+
+def launch(command, out, sets=(), restart=None, force=True, label=None):
+    """Runs cassini for a study: `command` is the launcher, binary and case file (e.g.
+    ["scripts/mpirun", "-n", "2", "build/cassini", "cases/x/case.toml"]), `out` the run directory,
+    `sets` the --set overrides, `restart` a snapshot to continue from. Its output goes to out.log.
+    Returns (wall seconds, stopped_by_guard). A guard stop (exit 3: e.g. a ring heated beyond what
+    t_c allows) is a result a study analyses up to the stop; any other failure is a RunError
+    naming the log."""
+    cmd = list(command) + ["--out", out] + (["--force"] if force else [])
+    if restart:
+        cmd += ["--restart", restart]
+    for s in sets:
+        cmd += ["--set", s]
+    t = time.time()
+    with open(out + ".log", "w") as log:
+        code = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
+    seconds = time.time() - t
+    if code not in (0, 3):
+        raise RunError(f"{label or os.path.basename(out)}: cassini exited with {code}; see {out}.log")
+    print(f"{label or os.path.basename(out)}: {seconds:.0f} s{' (stopped by a guard: see its log)' if code == 3 else ''}",
+          flush=True)
+    return seconds, code == 3
 
 
 class Hill:
