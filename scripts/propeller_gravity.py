@@ -30,14 +30,14 @@ Criteria over the snapshots from --from orbits on (every T0 / 20):
     boxes (maximal propeller heights ~0.6-0.8 r_H) and LE2's (the unperturbed ring's).
 Writes runs.csv, table.csv, maps.png into DIR (default runs/propeller-gravity) and cost.json.
 """
-import argparse, glob, json, math, os, sys
+import argparse, json, math, os, sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import G, Run, launch
+from cassini_tools import G, ContinuedRun, launch
 
 SATURN, R0 = 5.68e26, 1.2995e8         # cases/gravity-wakes
 OMEGA0 = math.sqrt(G * SATURN / R0 ** 3)
@@ -78,27 +78,14 @@ def name(ratio, seed):
     return f"ratio{ratio:g}_s{seed}"
 
 
-def parts(ratio, seed):
-    """A run's directory and its continuations, in order."""
-    d = os.path.join(a.out, name(ratio, seed))
-    more = sorted(glob.glob(d + "-part*"), key=lambda p: int(p.rsplit("-part", 1)[1]))
-    return [p for p in [d] + more if os.path.isdir(p)]
-
-
 def frames_of(ratio, seed, start, end=None):
-    out = {}
-    for p in parts(ratio, seed):
-        for f in Run(p).frames(start=start, end=end):
-            out[round(f.time, 3)] = f  # a continuation's first frame repeats its restart frame
-    return [out[t] for t in sorted(out)]
+    return ContinuedRun(os.path.join(a.out, name(ratio, seed))).frames(start=start, end=end)
 
 
 def simulate(job):
     ratio, seed = job
-    d = os.path.join(a.out, name(ratio, seed))
-    have = parts(ratio, seed)
-    last = have[-1] if have else None
-    if last and os.path.exists(os.path.join(last, "summary.json")) and Run(last).summary.get("status") in ("completed", "stopped by a guard"):
+    run = ContinuedRun(os.path.join(a.out, name(ratio, seed)))
+    if run.finished():
         return 0.0
     sigma = sigma_for(ratio)
     count = round(sigma * LX * LY / MEAN_MASS)
@@ -114,11 +101,7 @@ def simulate(job):
             "contact.skin=3.0",  # the moonlet flings particles at ~its escape speed: 1 m rebuilt every ~30 s
             f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 20:.4f}",
             f"output.observe_every={T0 / 100:.4f}", "output.dump_every=0", "output.progress_every=600"]
-    out, restart = d, None
-    snaps = Run(last).frames() if last else []
-    if snaps and snaps[-1].time > 0:  # a run killed part-way: continue it
-        out = f"{d}-part{len(have)}"
-        restart = snaps[-1].path
+    out, restart = run.next()  # a run killed part-way continues from its last snapshot
     seconds, _ = launch(mpirun + [cassini, os.path.join(ROOT, "cases", "gravity-wakes", "case.toml")], out, sets,
                         restart=restart, label=f"{os.path.basename(out)} on {a.ranks} rank(s)")
     return a.ranks * seconds

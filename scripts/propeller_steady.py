@@ -3,7 +3,7 @@ Lees-Edwards boundaries, started hot at the unperturbed ring's steady dispersion
 scripts/ring_steady_state.py), with criteria that measure what the thesis means.
 
    /usr/bin/python3 scripts/propeller_steady.py [--e 0.5 0.7 0.8 0.9] [--seeds 1 2] [--orbits 3]
-                     [--sigma 0.0011 0.023 0.035 0.056] [--ly 2000] [--lx 18000] [--radius 2] [--tc 1] [--lanes 2] [--table-only]
+                     [--sigma 0.0011 0.023 0.035 0.056] [--ly 2000] [--lx 18000] [--radius 2] [--tc 1] [--lanes 2] [--ranks 1] [--table-only]
                      [--out DIR]
 
 Criteria, per snapshot (every T0/10) after the first orbit (the propeller forms in ~1 orbit and
@@ -28,7 +28,7 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import Hill, Run, launch
+from cassini_tools import ContinuedRun, Hill, launch
 
 HILL = Hill({})
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -50,12 +50,14 @@ ap.add_argument("--radius", type=float, default=2.0,
 ap.add_argument("--tc", type=float, default=None,
                 help="contact duration (s; the case's 1 s); 1 m particles at e >= 0.95 need 0.5 s")
 ap.add_argument("--lanes", type=int, default=2)
+ap.add_argument("--ranks", type=int, default=1,
+                help="ranks per run; a run stopped part-way (killed) continues from its last snapshot, bitwise, in DIR/NAME-partK")
 ap.add_argument("--table-only", action="store_true")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-steady"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
 cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
-mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", "1"]
+mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", str(a.ranks)]
 
 
 def steady_sigma():
@@ -79,8 +81,8 @@ def name(e, seed):
 
 def simulate(job):
     e, seed, sigma = job
-    d = os.path.join(a.out, name(e, seed))
-    if os.path.exists(os.path.join(d, "summary.json")) and Run(d).summary.get("status") in ("completed", "stopped by a guard"):
+    run = ContinuedRun(os.path.join(a.out, name(e, seed)))
+    if run.finished():
         return 0.0
     sets = [f"seed={seed}", f"species.0.e={e}", "domain.modified_lees_edwards=true", "particles.dispersion=0",
             f"particles.velocity_sigma={sigma}", f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 10:.4f}",
@@ -90,7 +92,9 @@ def simulate(job):
                  f"species.0.radius={a.radius}", f"particles.count={round(30000 * a.ly / 2000 * a.lx / 18000 * (2.0 / a.radius) ** 2)}"]
     if a.tc is not None:
         sets += [f"species.0.t_c={a.tc}"]
-    return launch(mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml")], d, sets)[0]
+    out, restart = run.next()  # a run stopped part-way continues from its last snapshot
+    return a.ranks * launch(mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml")], out, sets,
+                            restart=restart, label=f"{os.path.basename(out)} on {a.ranks} rank(s)")[0]
 
 
 def measure(frame):
@@ -110,9 +114,28 @@ def measure(frame):
                 depth=1 - n1 / n2, null=1 - n2 / n2m, h1=h1, h2=h2, edges=edges)
 
 
+def le1_population(run):
+    """(time, LE1's population, all particles) from every part's observables.h5md; a part still
+    being written is left out."""
+    import h5py
+    t, n1, n = [], [], []
+    for p in run.parts():
+        try:
+            with h5py.File(os.path.join(p, "observables.h5md"), "r") as f:
+                t.append(f["observables/le1_particles/time"][:].ravel())
+                n1.append(f["observables/le1_particles/value"][:].ravel())
+                n.append(f["observables/particles/value"][:].ravel())
+        except (OSError, KeyError):
+            continue
+    if not t:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    t, n1, n = np.concatenate(t), np.concatenate(n1), np.concatenate(n)
+    _, first = np.unique(t, return_index=True)
+    return t[first], n1[first], n[first]
+
+
 def analyse(e, seed):
-    d = os.path.join(a.out, name(e, seed))
-    rows = [measure(f) for f in Run(d).frames(start=T0 + 1)]
+    rows = [measure(f) for f in ContinuedRun(os.path.join(a.out, name(e, seed))).frames(start=T0 + 1)]
     return rows
 
 
@@ -133,10 +156,7 @@ per_run, table = [], []
 for e in a.e:
     seeds = []
     for s in a.seeds:
-        d = os.path.join(a.out, name(e, s))
-        if not os.path.exists(os.path.join(d, "summary.json")):
-            continue
-        rows = analyse(e, s)
+        rows = analyse(e, s)  # a run still going (or stopped part-way) is analysed as far as it got
         if not rows:
             continue
         blocks = {}
@@ -149,13 +169,9 @@ for e in a.e:
         y = 0.5 * (edges[1:] + edges[:-1])
         deficit = np.clip(1 - h1 / np.maximum(h2, 1), 0, None)
         centroid = float(np.sum(y * deficit) / np.sum(deficit)) / R_HILL if deficit.sum() > 0 else float("nan")
-        import h5py
-        with h5py.File(os.path.join(d, "observables.h5md"), "r") as f:  # LE1's population against LE2's
-            t_obs = f["observables/le1_particles/time"][:].ravel()
-            n1 = f["observables/le1_particles/value"][:].ravel()
-            n_all = f["observables/particles/value"][:].ravel()
+        t_obs, n1, n_all = le1_population(ContinuedRun(os.path.join(a.out, name(e, s))))
         late = t_obs >= T0
-        pop = n1[late] / (n_all[late] - n1[late])
+        pop = n1[late] / (n_all[late] - n1[late]) if late.any() else np.array([np.nan])
         run = dict(e=e, seed=s, frames=len(rows), blocks=len(bm), gap_centroid_rH=centroid,
                    le1_over_le2_min=float(pop.min()), le1_over_le2_max=float(pop.max()), le1_over_le2_last=float(pop[-1]),
                    **{q: float(np.mean([b[q] for b in bm.values()])) for q in ("sigma_ring", "dv_y", "depth", "null")},

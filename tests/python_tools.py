@@ -23,7 +23,7 @@ import numpy as np
 cassini, source, work = (os.path.abspath(a) for a in sys.argv[1:4])
 mpi = [sys.argv[4], "-n", "2", *sys.argv[5:]]
 sys.path.insert(0, os.path.join(source, "python"))
-from cassini_tools import Run, RunError, G, launch  # noqa: E402
+from cassini_tools import ContinuedRun, Run, RunError, G, launch  # noqa: E402
 
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
@@ -106,17 +106,33 @@ for label, thunk, needle in (
     except RunError as e:
         check(f"{label} is refused naming it", needle in str(e), e)
 
-# launch(), the studies' way to run cassini: a continuation from step 50 ends where the
-# uninterrupted run did (restart exactness is the solver's; this checks launch passes --restart,
-# the overrides and --out), and a failed run is a RunError naming its log.
+# launch() and ContinuedRun, the studies' way to run cassini and to continue a run stopped
+# part-way: a copy of the gas run cut back to step 50 (as if killed there) continues from that
+# snapshot into gasc-part1 and ends where the uninterrupted run did (restart exactness is the
+# solver's; this checks the parts, the restart point and the overrides are passed right), the
+# cut run is not touched, and a failed run is a RunError naming its log.
 gas_sets = ["time.end=2e-5", "output.snapshot_every=1e-5", "output.dump_every=0", "output.observe_every=2e-6"]
-seconds, stopped = launch([*mpi, cassini, f"{source}/cases/gas"], f"{work}/gas-cont", gas_sets, restart=frames[1].path)
-cont = Run(f"{work}/gas-cont").frames()
-end = cont[-1].read(columns=["id", "position"])
+shutil.copytree(f"{work}/gas", f"{work}/gasc")
+for name in ("snap_000000100.h5md", "summary.json"):
+    os.remove(f"{work}/gasc/{name}")
+cut = ContinuedRun(f"{work}/gasc")
+out, restart = cut.next()
+check("ContinuedRun: a run cut at step 50 continues from it into a new part",
+      not cut.finished() and out == f"{work}/gasc-part1" and restart == f"{work}/gasc/snap_000000050.h5md", (out, restart))
+shutil.copytree(f"{work}/gasc", f"{work}/gasd")
+os.makedirs(f"{work}/gasd-part1")  # a continuation killed before its first snapshot
+check("ContinuedRun: a part that wrote no snapshot is redone in place, from the snapshot before it",
+      ContinuedRun(f"{work}/gasd").next() == (f"{work}/gasd-part1", f"{work}/gasd/snap_000000050.h5md"),
+      ContinuedRun(f"{work}/gasd").next())
+seconds, stopped = launch([*mpi, cassini, f"{source}/cases/gas"], out, gas_sets, restart=restart)
+end = cut.frames()[-1].read(columns=["id", "position"])
 ref = frames[-1].read(columns=["id", "position"])
-check("launch: a continuation from step 50 ends bitwise where the run did",
-      not stopped and os.path.exists(f"{work}/gas-cont.log") and [f.step for f in cont] == [100]  # not rerun from 0
-      and np.array_equal(end.position[np.argsort(end.id)], ref.position[np.argsort(ref.id)]), (stopped, [f.step for f in cont]))
+check("ContinuedRun + launch: the parts are the uninterrupted run (steps 0, 50, 100; bitwise at 100)",
+      not stopped and cut.finished() and [f.step for f in cut.frames()] == [0, 50, 100]
+      and os.path.exists(f"{work}/gasc-part1.log") and sorted(os.listdir(f"{work}/gasc")) == sorted(
+          n for n in os.listdir(f"{work}/gas") if n not in ("snap_000000100.h5md", "summary.json"))
+      and np.array_equal(end.position[np.argsort(end.id)], ref.position[np.argsort(ref.id)]),
+      [f.path for f in cut.frames()])
 try:
     launch([*mpi, cassini, f"{source}/cases/gas"], f"{work}/gas-bad", gas_sets + ["time.dt=-1"])
     check("launch: a failed run is refused", False, "no error")

@@ -13,6 +13,9 @@ Needs h5py and numpy (Debian's /usr/bin/python3 has them). Put this folder's par
         snap = frame.read()             # snap.position, snap.velocity, snap.id, ... (numpy)
     hill = run.hill()                   # Omega0, T0, shear rate, Hill radius of a moonlet
 
+For studies: launch(command, out, sets, restart=...) runs cassini with its log in out.log, and
+ContinuedRun(path) continues a run stopped part-way (path-part1, ...) and reads its parts as one.
+
 Units are SI throughout. Every failure is a RunError naming the file and what was wrong.
 """
 import csv
@@ -248,6 +251,58 @@ class Run:
     def ensemble(self):
         """ensemble.csv (--ensemble) as a list of rows, numbers as float, empty fields as None."""
         return read_ensemble(self._file("ensemble.csv"))
+
+
+class ContinuedRun:
+    """A study's run that may have been stopped part-way (killed, a machine handed back) and
+    continued: its directory and the continuations PATH-part1, PATH-part2, ..., each restarted
+    from the last snapshot before it (restarts are bitwise exact at any rank count, so the parts
+    together are the uninterrupted run).
+
+        run = ContinuedRun("runs/x/e0.9_s1")
+        if not run.finished():
+            out, restart = run.next()           # where to write, which snapshot to start from
+            launch(command, out, sets, restart=restart)
+        frames = run.frames(start=T0)           # every part's snapshots, each time once
+    """
+
+    def __init__(self, path):
+        self.path = path
+
+    def parts(self):
+        more = [p for p in glob.glob(self.path + "-part*") if re.fullmatch(r"-part\d+", p[len(self.path):])]
+        more.sort(key=lambda p: int(p.rsplit("-part", 1)[1]))
+        return [p for p in [self.path] + more if os.path.isdir(p)]
+
+    def summary(self):
+        """The last part's summary.json, or None while it has none (running, or killed)."""
+        parts = self.parts()
+        if not parts or not os.path.exists(os.path.join(parts[-1], "summary.json")):
+            return None
+        return Run(parts[-1]).summary
+
+    def finished(self):
+        return (self.summary() or {}).get("status") in ("completed", "stopped by a guard")
+
+    def frames(self, start=None, end=None):
+        by_time = {}
+        for p in self.parts():
+            for f in Run(p).frames(start=start, end=end):
+                by_time.setdefault(round(f.time, 6), f)
+        return [by_time[t] for t in sorted(by_time)]
+
+    def next(self):
+        """(out, restart): the directory the next launch writes and the snapshot it continues from
+        (None: from the start). A part that ended before its first snapshot is redone in place;
+        nothing with a snapshot is ever overwritten."""
+        parts = self.parts()
+        frames = [f for f in self.frames() if f.time > 0]
+        if not frames:
+            return (parts[-1] if parts else self.path), None  # nothing past the start: begin again
+        last = parts[-1]
+        if Run(last).frames(start=1e-300):
+            last = f"{self.path}-part{len(parts)}"
+        return last, frames[-1].path
 
 
 def read_ensemble(path, raw=False):
