@@ -21,7 +21,7 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import Hill, Run, Snapshot, launch
+from cassini_tools import Hill, Run, Snapshot, launch, solver
 
 HILL = Hill({})  # cases/propeller: hill's default Saturn and orbit
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -41,8 +41,7 @@ ap.add_argument("--only", nargs="*", default=None, help="just these runs, in thi
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-equilibrium"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
-cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
-mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", "1"]
+cassini = solver(ROOT)  # one rank per run
 
 
 def runs():
@@ -73,7 +72,7 @@ def simulate(r):
         open(case, "w").write("\n".join(lines))
     else:
         sets += [f"species.0.e={r['e']}"]
-    return launch(mpirun + [cassini, case], d, sets, label=r["name"])[0]
+    return launch(cassini + [case], d, sets, label=r["name"])[0]
 
 
 def dispersions(snap):

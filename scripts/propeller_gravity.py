@@ -37,7 +37,7 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import G, ContinuedRun, launch
+from cassini_tools import G, ContinuedRun, add_study_options, launch, solver
 
 SATURN, R0 = 5.68e26, 1.2995e8         # cases/gravity-wakes
 OMEGA0 = math.sqrt(G * SATURN / R0 ** 3)
@@ -57,15 +57,10 @@ ap.add_argument("--orbits", type=float, default=1.5)
 ap.add_argument("--from", dest="start", type=float, default=1.0, help="orbits: the analysis window's start")
 ap.add_argument("--to", dest="end", type=float, default=None, help="orbits: the analysis window's end (default: the run's)")
 ap.add_argument("--ly-rh", type=float, default=8.0, help="radial box width in r_H")
-ap.add_argument("--lanes", type=int, default=2)
-ap.add_argument("--ranks", type=int, default=1,
-                help="ranks per run; a run stopped part-way (killed) continues from its last snapshot, bitwise, in DIR/NAME-partK")
-ap.add_argument("--table-only", action="store_true")
-ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-gravity"))
+add_study_options(ap, os.path.join(ROOT, "runs", "propeller-gravity"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
-cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
-mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", str(a.ranks)]
+cassini = solver(ROOT, a.ranks)
 LX, LY = 60 * R_HILL, a.ly_rh * R_HILL
 
 
@@ -102,7 +97,7 @@ def simulate(job):
             f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 20:.4f}",
             f"output.observe_every={T0 / 100:.4f}", "output.dump_every=0", "output.progress_every=600"]
     out, restart = run.next()  # a run killed part-way continues from its last snapshot
-    seconds, _ = launch(mpirun + [cassini, os.path.join(ROOT, "cases", "gravity-wakes", "case.toml")], out, sets,
+    seconds, _ = launch(cassini + [os.path.join(ROOT, "cases", "gravity-wakes", "case.toml")], out, sets,
                         restart=restart, label=f"{os.path.basename(out)} on {a.ranks} rank(s)")
     return a.ranks * seconds
 

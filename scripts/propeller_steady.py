@@ -28,7 +28,7 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import ContinuedRun, Hill, launch
+from cassini_tools import ContinuedRun, Hill, add_study_options, launch, solver
 
 HILL = Hill({})
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -49,15 +49,10 @@ ap.add_argument("--radius", type=float, default=2.0,
                 help="particle radius (m; the case's 2 m); the count scales to keep the optical depth")
 ap.add_argument("--tc", type=float, default=None,
                 help="contact duration (s; the case's 1 s); 1 m particles at e >= 0.95 need 0.5 s")
-ap.add_argument("--lanes", type=int, default=2)
-ap.add_argument("--ranks", type=int, default=1,
-                help="ranks per run; a run stopped part-way (killed) continues from its last snapshot, bitwise, in DIR/NAME-partK")
-ap.add_argument("--table-only", action="store_true")
-ap.add_argument("--out", default=os.path.join(ROOT, "runs", "propeller-steady"))
+add_study_options(ap, os.path.join(ROOT, "runs", "propeller-steady"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
-cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
-mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", str(a.ranks)]
+cassini = solver(ROOT, a.ranks)
 
 
 def steady_sigma():
@@ -93,7 +88,7 @@ def simulate(job):
     if a.tc is not None:
         sets += [f"species.0.t_c={a.tc}"]
     out, restart = run.next()  # a run stopped part-way continues from its last snapshot
-    return a.ranks * launch(mpirun + [cassini, os.path.join(ROOT, "cases", "propeller", "case.toml")], out, sets,
+    return a.ranks * launch(cassini + [os.path.join(ROOT, "cases", "propeller", "case.toml")], out, sets,
                             restart=restart, label=f"{os.path.basename(out)} on {a.ranks} rank(s)")[0]
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "python"))
-from cassini_tools import Hill, Run, launch
+from cassini_tools import Hill, Run, launch, solver
 
 HILL = Hill({})  # cases/ring-section and cases/propeller: hill's default Saturn and orbit
 OMEGA0, T0 = HILL.omega0, HILL.period
@@ -65,8 +65,7 @@ ap.add_argument("--table-only", action="store_true")
 ap.add_argument("--out", default=os.path.join(ROOT, "runs", "ring-steady"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
-cassini = os.environ.get("CASSINI", os.path.join(ROOT, "build", "cassini"))
-mpirun = [os.path.join(ROOT, "scripts", "mpirun"), "-n", "1"]
+cassini = solver(ROOT)  # one rank per run
 RADIUS = a.radius
 PARTICLE_MASS = 4 / 3 * math.pi * RADIUS ** 3 * 500.0  # kg: cases/ring-section's density
 count = round(TAU * a.box ** 2 / (math.pi * RADIUS ** 2))
@@ -128,7 +127,7 @@ def advance(job):
     if os.path.exists(seg):  # an interrupted segment of this study's own: it is redone
         shutil.rmtree(seg)
     restart = Run(done[-1]).frames()[-1].path if done else None
-    seconds, stopped = launch(mpirun + [cassini, os.path.join(ROOT, "cases", "ring-section", "case.toml")], seg,
+    seconds, stopped = launch(cassini + [os.path.join(ROOT, "cases", "ring-section", "case.toml")], seg,
                               system(dims, start, e, seed) + output(end), restart=restart, force=False, label=run)
     if not stopped and not Run(seg).frames():
         raise RuntimeError(f"{run}: {seg} ended without a snapshot to continue from")

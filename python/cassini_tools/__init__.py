@@ -57,6 +57,23 @@ def _h5py():
     return h5py
 
 
+def add_study_options(parser, out, lanes=2):
+    """The options every study script in scripts/ takes: --lanes (runs at once), --ranks (per
+    run), --table-only, --out (default `out`)."""
+    parser.add_argument("--lanes", type=int, default=lanes, help="runs at once")
+    parser.add_argument("--ranks", type=int, default=1,
+                        help="ranks per run; a run stopped part-way continues from its last snapshot, bitwise, in DIR/NAME-partK")
+    parser.add_argument("--table-only", action="store_true", help="analyse what is there, run nothing")
+    parser.add_argument("--out", default=out)
+
+
+def solver(root, ranks=1):
+    """The launcher and binary a study runs: scripts/mpirun -n RANKS and $CASSINI (default
+    ROOT/build/cassini)."""
+    return [os.path.join(root, "scripts", "mpirun"), "-n", str(ranks),
+            os.environ.get("CASSINI", os.path.join(root, "build", "cassini"))]
+
+
 def launch(command, out, sets=(), restart=None, force=True, label=None):
     """Runs cassini for a study: `command` is the launcher, binary and case file (e.g.
     ["scripts/mpirun", "-n", "2", "build/cassini", "cases/x/case.toml"]), `out` the run directory,
