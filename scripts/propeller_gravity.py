@@ -80,7 +80,7 @@ def frames_of(ratio, seed, start, end=None):
 def simulate(job):
     ratio, seed = job
     run = ContinuedRun(os.path.join(a.out, name(ratio, seed)))
-    if run.finished():
+    if run.finished(until=round(a.orbits * T0, 1)):  # completed, as far as --orbits asks
         return 0.0
     sigma = sigma_for(ratio)
     count = round(sigma * LX * LY / MEAN_MASS)

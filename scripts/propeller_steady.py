@@ -77,7 +77,7 @@ def name(e, seed):
 def simulate(job):
     e, seed, sigma = job
     run = ContinuedRun(os.path.join(a.out, name(e, seed)))
-    if run.finished():
+    if run.finished(until=round(a.orbits * T0, 1)):  # completed, as far as --orbits asks
         return 0.0
     sets = [f"seed={seed}", f"species.0.e={e}", "domain.modified_lees_edwards=true", "particles.dispersion=0",
             f"particles.velocity_sigma={sigma}", f"time.end={a.orbits * T0:.1f}", f"output.snapshot_every={T0 / 10:.4f}",

@@ -133,6 +133,16 @@ check("ContinuedRun + launch: the parts are the uninterrupted run (steps 0, 50, 
           n for n in os.listdir(f"{work}/gas") if n not in ("snap_000000100.h5md", "summary.json"))
       and np.array_equal(end.position[np.argsort(end.id)], ref.position[np.argsort(ref.id)]),
       [f.path for f in cut.frames()])
+# A completed run asked to go further (a study's --orbits raised) is not finished: it continues
+# from its last snapshot into the next part and then is.
+longer = ["time.end=3e-5" if s.startswith("time.end=") else s for s in gas_sets]
+out, restart = cut.next()
+check("ContinuedRun: a completed run asked to go further continues from its last snapshot",
+      cut.finished(until=2e-5) and not cut.finished(until=3e-5)
+      and (out, restart) == (f"{work}/gasc-part2", f"{work}/gasc-part1/snap_000000100.h5md"), (out, restart))
+launch([*mpi, cassini, f"{source}/cases/gas"], out, longer, restart=restart)
+check("ContinuedRun: ... and reaches the new end (steps 0, 50, 100, 150)",
+      cut.finished(until=3e-5) and [f.step for f in cut.frames()] == [0, 50, 100, 150], [f.path for f in cut.frames()])
 try:
     launch([*mpi, cassini, f"{source}/cases/gas"], f"{work}/gas-bad", gas_sets + ["time.dt=-1"])
     check("launch: a failed run is refused", False, "no error")

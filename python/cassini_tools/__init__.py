@@ -277,7 +277,7 @@ class ContinuedRun:
     together are the uninterrupted run).
 
         run = ContinuedRun("runs/x/e0.9_s1")
-        if not run.finished():
+        if not run.finished(until=T_END):   # completed, and as far as asked
             out, restart = run.next()           # where to write, which snapshot to start from
             launch(command, out, sets, restart=restart)
         frames = run.frames(start=T0)           # every part's snapshots, each time once
@@ -298,8 +298,15 @@ class ContinuedRun:
             return None
         return Run(parts[-1]).summary
 
-    def finished(self):
-        return (self.summary() or {}).get("status") in ("completed", "stopped by a guard")
+    def finished(self, until=None):
+        """Whether the run is over: stopped by a guard, or completed (and, with `until`, having
+        reached that time to within a step: a run asked to go on further than it went is not)."""
+        summary = self.summary() or {}
+        if summary.get("status") == "stopped by a guard":
+            return True
+        if summary.get("status") != "completed":
+            return False
+        return until is None or summary["simulated_time"] >= until - summary["dt"]
 
     def frames(self, start=None, end=None):
         by_time = {}
