@@ -25,6 +25,11 @@ Criteria over the snapshots from --from orbits on (every T0 / 20):
     centroid (r_H);
   - the wakes: the unperturbed copy's dominant wavelength (radial cuts, 2D FFT of Sigma) against
     lambda_cr, and Toomre's Q of LE2;
+  - the gap's visibility against the wakes' own contrast, per pixel size (r_H / 4 to 2 r_H): the
+    gap pixels' mean deficit over the unperturbed ring's pixel-to-pixel scatter, with the part of
+    that scatter the simulation's few particles per pixel make (Poisson) removed, so that what is
+    left is the wakes' (a real ring has ~1e6 times the particles); and the fraction of gap pixels
+    darker than the unperturbed ring's median pixel (null: LE2's own gap pixels, 0.5);
   - the propeller's height: the mass-weighted rms z of LE1 in the gap region (1-3 r_H radially)
     per 1 r_H of downstream distance, its maximum against Hoffmann, Seiss, Salo & Spahn's N-body
     boxes (maximal propeller heights ~0.6-0.8 r_H) and LE2's (the unperturbed ring's).
@@ -114,6 +119,39 @@ sys.path.insert(0, os.path.join(ROOT, "scripts"))
 from gravity_wakes import wake  # noqa: E402  (the wakes' wave vector, as for cases/gravity-wakes)
 
 Y_EDGES = np.linspace(0, LY / 2, int(round(a.ly_rh * 4)) + 1)  # |y| bins of r_H / 4
+PIXELS = (0.25, 0.5, 1.0, 2.0)  # the visibility's pixel sizes, in r_H
+
+
+def pixel_maps(down, ay, side, m, scale):
+    """Mass per square pixel of `scale` r_H in (downstream distance, |y|, arm): each arm's
+    downstream gap is the same pixels, and a pixel row is centred on |y| = 2 r_H (the gap)."""
+    u_edges = np.arange(-30, 30 + 1e-9, scale)
+    w_edges = np.arange(2 - scale / 2 - scale * math.floor((2 - scale / 2) / scale), a.ly_rh / 2 + 1e-9, scale)
+    h, _ = np.histogramdd(np.column_stack([down, ay, side]), bins=[u_edges, w_edges, [-2, 0, 2]], weights=m)
+    u_mid, w_mid = 0.5 * (u_edges[1:] + u_edges[:-1]), 0.5 * (w_edges[1:] + w_edges[:-1])
+    gap = (u_mid[:, None] > 5) & (u_mid[:, None] < 25) & (np.abs(w_mid[None, :] - 2) < max(scale, 1) / 2)
+    return h, np.broadcast_to(gap[:, :, None], h.shape)
+
+
+def visibility(down, ay, side, m, one, two):
+    """The gap against the wakes' own contrast, per pixel size: D_pix = 1 - <M_LE1(gap pixels)> /
+    <M_LE2(all pixels)>, the unperturbed ring's pixel-to-pixel scatter CV = sd / mean of M_LE2,
+    the part of it that the particles' own shot noise explains (a Poisson scatter of particles
+    with LE2's masses: CV_shot^2 = <m^2> / (<m> <M>)), and the rest, the wakes': CV_wake^2 =
+    CV^2 - CV_shot^2. A real ring has ~1e6 times the particles per pixel, so what an image would
+    see is D_pix / CV_wake; D_pix / CV is this simulation's own map. Null: LE2's gap pixels."""
+    out = {}
+    m2 = m[two]
+    for scale in PIXELS:
+        h1, gap = pixel_maps(down[one], ay[one], side[one], m[one], scale)
+        h2, _ = pixel_maps(down[two], ay[two], side[two], m2, scale)
+        mean2 = h2.mean()
+        cv = h2.std() / mean2
+        cv_shot2 = np.mean(m2 ** 2) / (np.mean(m2) * mean2)
+        out[scale] = dict(d=1 - h1[gap].mean() / mean2, d_null=1 - h2[gap].mean() / mean2, cv=cv,
+                          cv_wake=math.sqrt(max(cv ** 2 - cv_shot2, 0.0)),
+                          dark=float(np.mean(h1[gap] < np.median(h2))), dark_null=float(np.mean(h2[gap] < np.median(h2))))
+    return out
 Z_EDGES = np.arange(-30, 31, 1.0)  # downstream distance (r_H) for the height profile
 
 
@@ -143,6 +181,7 @@ def measure(frame):
     sigma_y = math.sqrt(np.average((v[two, 1] - mid) ** 2, weights=m[two]))
     Sigma = m[two].sum() / (LX * LY)
     return dict(time=s.time, depth=1 - m1 / m2, null=1 - m2 / m2m, h1=h1, h2=h2,
+                vis=visibility(down, ay, np.sign(x[:, 1]), m, one, two),
                 z1=z_rms(near & one), z2=z_rms(near & two), z1_max=float(np.abs(x[near & one, 2]).max()) if (near & one).any() else float("nan"),
                 wavelength=lam, pitch=pitch, Q=sigma_y * OMEGA0 / (3.36 * G * Sigma), Sigma=Sigma,
                 n1=int(one.sum()), n2=int(two.sum()), zsum=zsum)
@@ -183,13 +222,19 @@ for ratio in sorted(a.ratio, reverse=True):
         run["height_at_rH"] = float(down_mid[after][np.argmax(zp["z1"][after])])
         run["height_far_rH"] = float(np.median(zp["z2"]))
         run["gap"] = bool(run["depth"] > 3 * run["null_sd"])
+        for scale in PIXELS:  # the visibility: frame means of the gap's and the wakes' contrast
+            v = {k: float(np.mean([r["vis"][scale][k] for r in rs])) for k in rs[0]["vis"][scale]}
+            run[f"vis{scale:g}"] = v["d"] / v["cv_wake"] if v["cv_wake"] > 0 else float("inf")
+            run[f"vis_null{scale:g}"] = v["d_null"] / v["cv_wake"] if v["cv_wake"] > 0 else float("nan")
+            run.update({f"{k}{scale:g}": v[k] for k in ("d", "cv", "cv_wake", "dark", "dark_null")})
         rows_out.append(run)
         per_seed.append(run)
     if per_seed:
         table.append(per_seed)
 
 keys = ["ratio", "seed", "frames", "t_from", "t_to", "lambda_cr", "rH_over_lambda_cr", "depth", "depth_sd", "null", "null_sd", "gap",
-        "centroid_rH", "wavelength", "pitch", "Q", "z_le1_rH", "z_le2_rH", "z_le1_max_rH", "height_max_rH", "height_at_rH", "height_far_rH", "le1_over_le2"]
+        "centroid_rH", "wavelength", "pitch", "Q", "z_le1_rH", "z_le2_rH", "z_le1_max_rH", "height_max_rH", "height_at_rH", "height_far_rH", "le1_over_le2"] + [
+    f"{k}{p:g}" for p in PIXELS for k in ("vis", "vis_null", "d", "cv", "cv_wake", "dark", "dark_null")]
 with open(os.path.join(a.out, "runs.csv"), "w") as f:
     f.write(",".join(keys) + "\n")
     for r in rows_out:
@@ -206,6 +251,10 @@ for r in rows_out:
           f"rms z near the moonlet {r['z_le1_rH']:.3f} r_H (unperturbed {r['z_le2_rH']:.3f}), max |z| {r['z_le1_max_rH']:.2f} r_H; "
           f"height (rms z at 1-3 r_H) peaks at {r['height_max_rH']:.3f} r_H, {r['height_at_rH']:.1f} r_H downstream (unperturbed {r['height_far_rH']:.3f}); "
           f"LE1/LE2 {r['le1_over_le2']:.3f}")
+    for p in PIXELS:
+        print(f"    pixels {p:g} r_H: gap deficit {r[f'd{p:g}']:.2f}, unperturbed scatter CV {r[f'cv{p:g}']:.2f} "
+              f"(wakes' part {r[f'cv_wake{p:g}']:.2f}) -> visibility D/CV_wake {r[f'vis{p:g}']:.2f} (null {r[f'vis_null{p:g}']:+.2f}), "
+              f"D/CV {r[f'd{p:g}'] / r[f'cv{p:g}']:.2f}; gap pixels darker than the ring's median {r[f'dark{p:g}']:.2f} (null {r[f'dark_null{p:g}']:.2f})")
 
 if rows_out:
     import matplotlib
