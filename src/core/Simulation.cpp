@@ -396,9 +396,11 @@ void Simulation::run(RunSink* out) {
        << ", \"le2_particles\": " << total_particles() - g[3] << "}";
     set_result("modified_lees_edwards", os.str());
   }
-  // A run that a module ended (a clog) gets a last frame with its final state and results; an
-  // interrupted one only when the case asks (output.snapshot_on_signal: a frame to continue from).
-  if (out && record.finished) {
+  // A run that reached time.end or that a module ended (a clog) gets a last frame with its final
+  // state and results, also when snapshot_every does not divide its length (so that a study can
+  // continue it from its end); an interrupted one only when the case asks
+  // (output.snapshot_on_signal: a frame to continue from).
+  if (out && (record.finished || step_count >= nsteps)) {
     const bool wanted = record.interrupted ? cfg.snapshot_on_signal : snap_every > 0;
     const bool written = snap_every && step_count % snap_every == 0 && time >= cfg.snapshot_from - 0.5 * dt;
     if (wanted && !written) out->snapshot(*this);
