@@ -182,6 +182,9 @@ def measure(frame):
     Sigma = m[two].sum() / (LX * LY)
     return dict(time=s.time, depth=1 - m1 / m2, null=1 - m2 / m2m, h1=h1, h2=h2,
                 vis=visibility(down, ay, np.sign(x[:, 1]), m, one, two),
+                # where LE1's population differs from LE2's: (M_LE1 - M_LE2) / M_LE2 by region
+                where={k: (m[sel & one].sum() - m[sel & two].sum()) / m[two].sum() for k, sel in
+                       (("upstream", down < -2), ("near", np.abs(down) <= 2), ("downstream", down > 2))},
                 z1=z_rms(near & one), z2=z_rms(near & two), z1_max=float(np.abs(x[near & one, 2]).max()) if (near & one).any() else float("nan"),
                 wavelength=lam, pitch=pitch, Q=sigma_y * OMEGA0 / (3.36 * G * Sigma), Sigma=Sigma,
                 n1=int(one.sum()), n2=int(two.sum()), zsum=zsum)
@@ -213,7 +216,8 @@ for ratio in sorted(a.ratio, reverse=True):
                    Q=float(np.mean([r["Q"] for r in rs])),
                    z_le1_rH=float(np.nanmean([r["z1"] for r in rs])) / R_HILL, z_le2_rH=float(np.nanmean([r["z2"] for r in rs])) / R_HILL,
                    z_le1_max_rH=float(np.nanmax([r["z1_max"] for r in rs])) / R_HILL,
-                   le1_over_le2=float(np.mean([r["n1"] / r["n2"] for r in rs])))
+                   le1_over_le2=float(np.mean([r["n1"] / r["n2"] for r in rs])),
+                   **{f"le1_excess_{k}": float(np.mean([r["where"][k] for r in rs])) for k in ("upstream", "near", "downstream")})
         zp = {k: np.sqrt(sum(r["zsum"][k][0] for r in rs) / np.maximum(sum(r["zsum"][k][1] for r in rs), 1e-300)) / R_HILL
               for k in ("z1", "z2")}
         down_mid = 0.5 * (Z_EDGES[1:] + Z_EDGES[:-1])
@@ -233,7 +237,8 @@ for ratio in sorted(a.ratio, reverse=True):
         table.append(per_seed)
 
 keys = ["ratio", "seed", "frames", "t_from", "t_to", "lambda_cr", "rH_over_lambda_cr", "depth", "depth_sd", "null", "null_sd", "gap",
-        "centroid_rH", "wavelength", "pitch", "Q", "z_le1_rH", "z_le2_rH", "z_le1_max_rH", "height_max_rH", "height_at_rH", "height_far_rH", "le1_over_le2"] + [
+        "centroid_rH", "wavelength", "pitch", "Q", "z_le1_rH", "z_le2_rH", "z_le1_max_rH", "height_max_rH", "height_at_rH", "height_far_rH", "le1_over_le2",
+        "le1_excess_upstream", "le1_excess_near", "le1_excess_downstream"] + [
     f"{k}{p:g}" for p in PIXELS for k in ("vis", "vis_null", "d", "cv", "cv_wake", "dark", "dark_null")]
 with open(os.path.join(a.out, "runs.csv"), "w") as f:
     f.write(",".join(keys) + "\n")
@@ -250,7 +255,8 @@ for r in rows_out:
           f"wakes {r['wavelength']:.0f} m = {r['wavelength'] / r['lambda_cr']:.2f} lambda_cr, pitch {r['pitch']:.0f} deg, Q {r['Q']:.2f}; "
           f"rms z near the moonlet {r['z_le1_rH']:.3f} r_H (unperturbed {r['z_le2_rH']:.3f}), max |z| {r['z_le1_max_rH']:.2f} r_H; "
           f"height (rms z at 1-3 r_H) peaks at {r['height_max_rH']:.3f} r_H, {r['height_at_rH']:.1f} r_H downstream (unperturbed {r['height_far_rH']:.3f}); "
-          f"LE1/LE2 {r['le1_over_le2']:.3f}")
+          f"LE1/LE2 {r['le1_over_le2']:.3f} (LE1 - LE2 upstream / within 2 r_H / downstream: {r['le1_excess_upstream']:+.3f} / "
+          f"{r['le1_excess_near']:+.3f} / {r['le1_excess_downstream']:+.3f})")
     for p in PIXELS:
         print(f"    pixels {p:g} r_H: gap deficit {r[f'd{p:g}']:.2f}, unperturbed scatter CV {r[f'cv{p:g}']:.2f} "
               f"(wakes' part {r[f'cv_wake{p:g}']:.2f}) -> visibility D/CV_wake {r[f'vis{p:g}']:.2f} (null {r[f'vis_null{p:g}']:+.2f}), "
