@@ -152,6 +152,8 @@ def visibility(down, ay, side, m, one, two):
                           cv_wake=math.sqrt(max(cv ** 2 - cv_shot2, 0.0)),
                           dark=float(np.mean(h1[gap] < np.median(h2))), dark_null=float(np.mean(h2[gap] < np.median(h2))))
     return out
+
+
 Z_EDGES = np.arange(-30, 31, 1.0)  # downstream distance (r_H) for the height profile
 
 
