@@ -24,6 +24,8 @@ L=$B/usr/lib/x86_64-linux-gnu
 # executables
 cp "$BUILD/cassini" "$BUILD/cassini-cg" /usr/bin/lmp /usr/bin/orterun /usr/bin/orted /usr/bin/ompi_info "$B/usr/bin/"
 strip --strip-unneeded "$B/usr/bin/cassini" "$B/usr/bin/cassini-cg"
+# the Stokes solve's CHOLMOD module, loaded from beside the executable (its libraries join below)
+cp "$BUILD/libcassini_cholmod.so" "$B/usr/bin/"
 # LAMMPS built from Debian's source (scripts/lammps-source), when there is one
 [ -n "${LMP_SRC:-}" ] && [ -x "$LMP_SRC" ] && cp "$LMP_SRC" "$B/usr/bin/lmp-src" && strip --strip-unneeded "$B/usr/bin/lmp-src"
 ln -s orterun "$B/usr/bin/mpirun"; ln -s orterun "$B/usr/bin/mpiexec"

@@ -5,9 +5,10 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+
+#include "physics/channel/SparseCholesky.hpp"
 
 namespace cassini {
 namespace {
@@ -93,17 +94,13 @@ struct StokesProblem::Impl {
   std::vector<int> pid;  // cell -> pressure unknown, or -1
   int np = 0;
   bool repeatable = false;
-  Eigen::CholmodSupernodalLLT<SpMat> cholmod[3];
-  Eigen::SimplicialLLT<SpMat> simplicial[3];
+  std::unique_ptr<SparseCholesky> velocity[3];  // supernodal, or simplicial where repeatable
   // With a Brinkman term S is no longer well conditioned (its eigenvalues fall as 1 / B in a
   // dense pile): CG is then preconditioned by D diag(A)^-1 D^T, a variable-coefficient pressure
   // Poisson operator that carries the same 1 / (eta / dx^2 + B) weights.
   bool preconditioned = false, poisson_analysed = false;
   Eigen::SimplicialLLT<SpMat> pressure_poisson;
-  Vec solve_velocity(int a, const Vec& rhs) const {
-    if (repeatable) return simplicial[a].solve(rhs);
-    return cholmod[a].solve(rhs);
-  }
+  Vec solve_velocity(int a, const Vec& rhs) const { return velocity[a]->solve(rhs); }
   int cell(int i, int j, int k) const { return (i * g.ny + j) * g.nz + k; }
   // f(unknown, the cell below the face, the cell above it) for every unknown face of component a.
   template <class F> void for_unknown_faces(int a, F&& f) const {
@@ -214,8 +211,8 @@ StokesProblem::StokesProblem(const StokesGrid& g, bool repeatable) : m_(std::mak
   }
   for (int a = 0; a < 3; ++a) {
     m.A[a] = m.laplacian[a];
-    if (repeatable) m.simplicial[a].analyzePattern(m.A[a]);
-    else m.cholmod[a].analyzePattern(m.A[a]);
+    m.velocity[a] = repeatable ? make_simplicial_cholesky() : make_supernodal_cholesky();
+    m.velocity[a]->analyze(m.A[a]);
   }
   set_brinkman({});
 }
@@ -231,10 +228,7 @@ void StokesProblem::set_brinkman(const std::vector<double>& per_cell) {
         m.A[a].coeffRef(r, r) += 0.5 * (per_cell[below] + per_cell[above]);
       });
     }
-    bool ok;
-    if (m.repeatable) { m.simplicial[a].factorize(m.A[a]); ok = m.simplicial[a].info() == Eigen::Success; }
-    else { m.cholmod[a].factorize(m.A[a]); ok = m.cholmod[a].info() == Eigen::Success; }
-    if (!ok) throw std::runtime_error("Stokes solve: velocity operator not positive definite");
+    if (!m.velocity[a]->factorize(m.A[a])) throw std::runtime_error("Stokes solve: velocity operator not positive definite");
   }
   if (!m.preconditioned) return;
   SpMat P(m.np, m.np);

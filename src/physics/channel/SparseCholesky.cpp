@@ -1,0 +1,71 @@
+#include "physics/channel/SparseCholesky.hpp"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/SparseCholesky>
+
+namespace cassini {
+namespace {
+
+class SimplicialCholesky final : public SparseCholesky {
+ public:
+  void analyze(const Matrix& a) override { llt_.analyzePattern(a); }
+  bool factorize(const Matrix& a) override {
+    llt_.factorize(a);
+    return llt_.info() == Eigen::Success;
+  }
+  Vector solve(const Vector& b) const override { return llt_.solve(b); }
+
+ private:
+  Eigen::SimplicialLLT<Matrix> llt_;
+};
+
+using Factory = SparseCholesky* (*)();
+
+// The module's factory, loaded once per process and never unloaded (its objects' code lives there).
+Factory supernodal_factory() {
+  static Factory factory = nullptr;
+  static std::string error;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    const char* name = "libcassini_cholmod.so";
+    std::vector<std::filesystem::path> tried;
+    std::error_code ec;
+    const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path();
+    // beside the executable (cassini, cassini-cg), one folder up (the tests), the build folder
+    if (!ec) tried = {exe / name, exe.parent_path() / name};
+    const auto built = std::filesystem::path(CASSINI_MODULE_DIR) / name;
+    if (std::find(tried.begin(), tried.end(), built) == tried.end()) tried.push_back(built);
+    std::string why;
+    for (const auto& path : tried) {
+      if (!std::filesystem::exists(path)) continue;
+      void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) { why += std::string("\n  ") + dlerror(); continue; }
+      factory = reinterpret_cast<Factory>(dlsym(handle, "cassini_new_supernodal_cholesky"));
+      if (factory) return;
+      why += "\n  " + path.string() + ": no cassini_new_supernodal_cholesky";
+    }
+    error = std::string("the Stokes solve needs ") + name + " (SuiteSparse's CHOLMOD, built beside cassini); looked in";
+    for (const auto& path : tried) error += "\n  " + path.string();
+    error += why;
+  });
+  if (!factory) throw std::runtime_error(error);
+  return factory;
+}
+
+}  // namespace
+
+std::unique_ptr<SparseCholesky> make_simplicial_cholesky() { return std::make_unique<SimplicialCholesky>(); }
+
+std::unique_ptr<SparseCholesky> make_supernodal_cholesky() {
+  return std::unique_ptr<SparseCholesky>(supernodal_factory()());
+}
+
+}  // namespace cassini

@@ -1,0 +1,31 @@
+#pragma once
+// A sparse symmetric positive definite factorisation, as the Stokes solve uses it (analyse a
+// pattern once, factorise each new operator, solve many right-hand sides).
+//
+// Two kinds: Eigen's simplicial LLT (in the core; bitwise repeatable, the `repeatable` solve)
+// and SuiteSparse's supernodal CHOLMOD (10x faster on 3D grids). CHOLMOD and the BLAS, LAPACK
+// and Fortran runtime it needs live in a module, libcassini_cholmod.so, loaded on the first
+// supernodal factorisation: scenes without a flow never load them (~2.8 MB resident per rank).
+#include <memory>
+
+#include <Eigen/SparseCore>
+
+namespace cassini {
+
+class SparseCholesky {
+ public:
+  using Matrix = Eigen::SparseMatrix<double>;
+  using Vector = Eigen::VectorXd;
+  virtual ~SparseCholesky() = default;
+  virtual void analyze(const Matrix& a) = 0;
+  // false where the matrix is not positive definite
+  virtual bool factorize(const Matrix& a) = 0;
+  virtual Vector solve(const Vector& b) const = 0;
+};
+
+std::unique_ptr<SparseCholesky> make_simplicial_cholesky();
+// Loads the module (beside the executable, one folder up, or in the build folder); throws with
+// the paths tried if it is missing.
+std::unique_ptr<SparseCholesky> make_supernodal_cholesky();
+
+}  // namespace cassini
