@@ -48,9 +48,9 @@ Factory supernodal_factory() {
       if (!std::filesystem::exists(path)) continue;
       void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
       if (!handle) { why += std::string("\n  ") + dlerror(); continue; }
-      factory = reinterpret_cast<Factory>(dlsym(handle, "cassini_new_supernodal_cholesky"));
+      factory = reinterpret_cast<Factory>(dlsym(handle, "cassini_new_supernodal_cholesky_v1"));
       if (factory) return;
-      why += "\n  " + path.string() + ": no cassini_new_supernodal_cholesky";
+      why += "\n  " + path.string() + ": no cassini_new_supernodal_cholesky_v1";
     }
     error = std::string("the Stokes solve needs ") + name + " (SuiteSparse's CHOLMOD, built beside cassini); looked in";
     for (const auto& path : tried) error += "\n  " + path.string();

@@ -6,6 +6,8 @@
 // and SuiteSparse's supernodal CHOLMOD (10x faster on 3D grids). CHOLMOD and the BLAS, LAPACK
 // and Fortran runtime it needs live in a module, libcassini_cholmod.so, loaded on the first
 // supernodal factorisation: scenes without a flow never load them (~2.8 MB resident per rank).
+// The module's one symbol, cassini_new_supernodal_cholesky_v1, carries this class's version:
+// change the class, bump the suffix, so that an older executable refuses a newer module.
 #include <memory>
 
 #include <Eigen/SparseCore>

@@ -22,6 +22,6 @@ class SupernodalCholesky final : public cassini::SparseCholesky {
 
 }  // namespace
 
-extern "C" __attribute__((visibility("default"))) cassini::SparseCholesky* cassini_new_supernodal_cholesky() {
+extern "C" __attribute__((visibility("default"))) cassini::SparseCholesky* cassini_new_supernodal_cholesky_v1() {
   return new SupernodalCholesky();
 }
