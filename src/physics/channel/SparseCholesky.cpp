@@ -14,19 +14,6 @@
 namespace cassini {
 namespace {
 
-class SimplicialCholesky final : public SparseCholesky {
- public:
-  void analyze(const Matrix& a) override { llt_.analyzePattern(a); }
-  bool factorize(const Matrix& a) override {
-    llt_.factorize(a);
-    return llt_.info() == Eigen::Success;
-  }
-  Vector solve(const Vector& b) const override { return llt_.solve(b); }
-
- private:
-  Eigen::SimplicialLLT<Matrix> llt_;
-};
-
 using Factory = SparseCholesky* (*)();
 
 // The module's factory, loaded once per process and never unloaded (its objects' code lives there).
@@ -62,7 +49,7 @@ Factory supernodal_factory() {
 
 }  // namespace
 
-std::unique_ptr<SparseCholesky> make_simplicial_cholesky() { return std::make_unique<SimplicialCholesky>(); }
+std::unique_ptr<SparseCholesky> make_simplicial_cholesky() { return std::make_unique<EigenCholesky<Eigen::SimplicialLLT<SparseCholesky::Matrix>>>(); }
 
 std::unique_ptr<SparseCholesky> make_supernodal_cholesky() {
   return std::unique_ptr<SparseCholesky>(supernodal_factory()());

@@ -25,6 +25,21 @@ class SparseCholesky {
   virtual Vector solve(const Vector& b) const = 0;
 };
 
+// SparseCholesky over one of Eigen's LLT types (SimplicialLLT here, CholmodSupernodalLLT in the module).
+template <class LLT>
+class EigenCholesky final : public SparseCholesky {
+ public:
+  void analyze(const Matrix& a) override { llt_.analyzePattern(a); }
+  bool factorize(const Matrix& a) override {
+    llt_.factorize(a);
+    return llt_.info() == Eigen::Success;
+  }
+  Vector solve(const Vector& b) const override { return llt_.solve(b); }
+
+ private:
+  LLT llt_;
+};
+
 std::unique_ptr<SparseCholesky> make_simplicial_cholesky();
 // Loads the module (beside the executable, one folder up, or in the build folder); throws with
 // the paths tried if it is missing.
