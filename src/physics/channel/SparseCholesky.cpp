@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <stdexcept>
@@ -24,12 +25,16 @@ Factory supernodal_factory() {
   std::call_once(once, [] {
     const char* name = "libcassini_cholmod.so";
     std::vector<std::filesystem::path> tried;
-    std::error_code ec;
-    const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path();
-    // beside the executable (cassini, cassini-cg), one folder up (the tests), the build folder
-    if (!ec) tried = {exe / name, exe.parent_path() / name};
-    const auto built = std::filesystem::path(CASSINI_MODULE_DIR) / name;
-    if (std::find(tried.begin(), tried.end(), built) == tried.end()) tried.push_back(built);
+    if (const char* dir = std::getenv("CASSINI_MODULE_DIR"); dir && *dir) {
+      tried = {std::filesystem::path(dir) / name};  // an installation's (or a test's) choice: only there
+    } else {
+      std::error_code ec;
+      const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path();
+      // beside the executable (cassini, cassini-cg), one folder up (the tests), the build folder
+      if (!ec) tried = {exe / name, exe.parent_path() / name};
+      const auto built = std::filesystem::path(CASSINI_MODULE_DIR) / name;
+      if (std::find(tried.begin(), tried.end(), built) == tried.end()) tried.push_back(built);
+    }
     std::string why;
     for (const auto& path : tried) {
       if (!std::filesystem::exists(path)) continue;
@@ -39,7 +44,7 @@ Factory supernodal_factory() {
       if (factory) return;
       why += "\n  " + path.string() + ": no cassini_new_supernodal_cholesky_v1";
     }
-    error = std::string("the Stokes solve needs ") + name + " (SuiteSparse's CHOLMOD, built beside cassini); looked in";
+    error = std::string("the Stokes solve needs ") + name + " (SuiteSparse's CHOLMOD, built beside cassini); set CASSINI_MODULE_DIR to the folder that holds it; looked in";
     for (const auto& path : tried) error += "\n  " + path.string();
     error += why;
   });
