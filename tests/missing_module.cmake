@@ -1,5 +1,6 @@
 # A clogging run whose CHOLMOD module cannot be found must stop on both ranks with an error that
-# names the module, the folder it looked in and how to point at another; never hang the other rank.
+# names the module, the folder it looked in and how to point at another, and say so in the run's
+# summary.json; never hang the other rank.
 file(REMOVE_RECURSE ${WORK})
 file(MAKE_DIRECTORY ${WORK}/no-module)
 execute_process(COMMAND ${CMAKE_COMMAND} -E env CASSINI_MODULE_DIR=${WORK}/no-module
@@ -15,3 +16,7 @@ foreach(expected "libcassini_cholmod.so" "CASSINI_MODULE_DIR" "${WORK}/no-module
     message(FATAL_ERROR "the error does not name '${expected}':\n${out}${err}")
   endif()
 endforeach()
+file(READ ${WORK}/run/summary.json summary)
+if(NOT summary MATCHES "\"status\": \"error\"" OR NOT summary MATCHES "libcassini_cholmod.so")
+  message(FATAL_ERROR "summary.json does not record the error:\n${summary}")
+endif()

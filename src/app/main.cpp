@@ -177,7 +177,11 @@ int main(int argc, char** argv) {
     MPI_Abort(MPI_COMM_WORLD, 4);
   } catch (const std::exception& e) {  // possibly on one rank only: the others cannot be waited for
     std::cerr << "error (rank " << rank << "): " << e.what() << std::endl;
-    if (out_ptr) out_ptr->log_only(std::string("error (rank ") + std::to_string(rank) + "): " + e.what());
+    if (out_ptr) {
+      out_ptr->log_only(std::string("error (rank ") + std::to_string(rank) + "): " + e.what());
+      // rank 0 can still say so in summary.json (a full disk may refuse that too: abort anyway)
+      try { out_ptr->error_summary(std::string("rank ") + std::to_string(rank) + ": " + e.what()); } catch (...) {}
+    }
     MPI_Abort(MPI_COMM_WORLD, 4);
   }
   MPI_Finalize();
