@@ -41,8 +41,8 @@ class EigenCholesky final : public SparseCholesky {
 };
 
 std::unique_ptr<SparseCholesky> make_simplicial_cholesky();
-// Loads the module (beside the executable, one folder up, or in the build folder); throws with
-// the paths tried if it is missing.
+// Loads the module (from $CASSINI_MODULE_DIR if set, else beside the executable, one folder up,
+// or in the build folder); throws with the paths tried if it is missing.
 std::unique_ptr<SparseCholesky> make_supernodal_cholesky();
 
 }  // namespace cassini
