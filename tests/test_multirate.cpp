@@ -247,6 +247,50 @@ TEST(MultiRate, PropellerGapsTrailDownstreamOfTheMoonlet) {
   EXPECT_NEAR(inner_up / expected, 1, 0.3);
 }
 
+// The neighbour list stays valid while free particles are lazy because the rebuild decision
+// takes a bound on how far each can have drifted since the build. Every free particle's present
+// displacement (relative to the imposed flow at its build position) must be within the drift
+// the integrator reported for the step. In the propeller patch the moonlet flings particles
+// onto fast epicycles, which carry bounds of their own (MultiRateHill::fast_bounds; a bound
+// that left them out, or dropped its velocity term, fails here).
+TEST(MultiRate, FreeParticlesStayWithinTheDriftBound) {
+  auto sim = make_sim(kPropellerPatch, {"time.integrator=\"multirate\"", "contact.skin=4.0"});
+  sim->setup();
+  const MultiRateHill* mr = sim->find<MultiRateHill>();
+  ASSERT_NE(mr, nullptr);
+  const double rate = sim->domain.shear.rate;
+  const std::size_t mode = sim->particles.find_column("multirate_mode");
+  double t_build = sim->time, farthest = 0;
+  long rebuilds = sim->rebuilds, checked = 0, violations = 0;
+  while (sim->time < 0.1 * kT0) {
+    sim->step();
+    if (sim->rebuilds != rebuilds) {  // built this step: every displacement is zero
+      rebuilds = sim->rebuilds;
+      t_build = sim->time;
+      continue;
+    }
+    const MultiRateHill::Present now = mr->present(*sim);
+    const ParticleStore& p = sim->particles;
+    const double stream = rate * (sim->time - t_build), bound = std::sqrt(sim->stepping.max_drift2);
+    double largest = 0;
+    for (std::size_t i = 0; i < p.nlocal; ++i) {
+      if (*p.column(mode, i) != 0) continue;  // free ones only (contact steps: their drift is counted as they move)
+      const Vec3 x = now(i), xb = p.x_build[i];
+      largest = std::max(largest, Vec3(x[0] - xb[0] - stream * xb[1], x[1] - xb[1], x[2] - xb[2]).norm());
+    }
+    violations += largest > bound * (1 + 1e-9) + 1e-9;
+    farthest = std::max(farthest, largest);
+    ++checked;
+  }
+  std::printf("%ld steps checked, %ld rebuilds: free particles drifted up to %.3f m from their build positions; %ld violations\n",
+              checked, sim->rebuilds, farthest, violations);
+  EXPECT_EQ(violations, 0);
+  EXPECT_GT(checked, 5000);
+  // Free particles must drift far enough between rebuilds (half the skin triggers one) for a
+  // bound that is too small to show.
+  EXPECT_GT(farthest, 0.25 * sim->skin);
+}
+
 // On contact steps only the targets get new damping loads, so the damping limit moves loads
 // for them and for last step's loaded particles only: its columns must stay those of a pass
 // over every particle, through targets that change, particles that leave the contact steps
@@ -284,7 +328,7 @@ TEST(DampingLimit, ContactStepLoadsAreThoseOfAFullPass) {
   EXPECT_GT(loaded, compared / 40) << "loads must occur, or the test shows nothing";
 }
 
-// Between long steps only the particles on contact steps (and the drifting ones) move, so the
+// Between long steps only the particles on contact steps move, so the
 // step's ghost update refreshes their images and the sheared ones (whose x follows the shear
 // offset) only. A ghost left stale would change what the contact particles meet: the ring gas
 // (Lees-Edwards, many collisions across the sheared boundary) and the propeller patch (a pile

@@ -511,17 +511,23 @@ void HaloExchange::update_ghosts_of(ParticleStore& p, const std::vector<std::uin
     }
   // Then every image of a changed particle (a sheared one to another rank is already in its
   // rows), once: a row more than the ghosts a rank holds would not fit its receive.
+  // Most changed particles have no image (they are not near a face): skipped on one load.
   if (changed_.size() < p.nlocal) changed_.resize(p.nlocal, 0);
+  const std::uint32_t* first = images_start_.data();
+  std::size_t marked = 0;
   for (const std::uint32_t i : changed) {
-    if (changed_[i]) continue;
+    const std::uint32_t k0 = first[i], k1 = first[i + 1];
+    if (k0 == k1 || changed_[i]) continue;
     changed_[i] = 1;
-    for (std::uint32_t k = images_start_[i]; k < images_start_[i + 1]; ++k) {
+    ++marked;
+    for (std::uint32_t k = k0; k < k1; ++k) {
       const ImageRef ref = images_[k];
       if (ref.rank == me) write_own_image(p, send_[me][ref.slot], first_ghost_[me] + ref.slot);
       else if (!(sheared && send_[ref.rank][ref.slot].k[1] != 0)) add_row(ref.rank, ref.slot);
     }
   }
-  for (const std::uint32_t i : changed) changed_[i] = 0;
+  if (marked > 0)
+    for (const std::uint32_t i : changed) changed_[i] = 0;
   for (int r = 0; r < n; ++r) {
     if (r == me || send_[r].empty()) continue;
     auto& b = out_[r];

@@ -130,7 +130,6 @@ bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) co
   const double D = delta_, W = omega_;
   const Vec3& x = p.x[i];
   const Vec3& v = p.v[i];
-  const Vec3 ai = moonlet_acceleration(p, i);
   if (moonlet_ && Moonlet::feels(p, i)) {
     const double r = std::sqrt(x[0] * x[0] + x[1] * x[1] + (planar_ ? 0.0 : x[2] * x[2]));
     const double speed = v.norm();
@@ -149,7 +148,8 @@ bool MultiRateHill::needs_contact_steps(const Simulation& sim, std::size_t i) co
     if (x[0] - dom.lo[0] < reach || dom.hi[0] - x[0] < reach) return true;
   }
   const NeighborList& nl = sim.neighbors;
-  const double ai_norm = ai.norm(), Wz2 = omega_z_ * omega_z_;
+  if (nl.start[i] == nl.start[i + 1]) return false;  // most ring particles: no partner
+  const double ai_norm = moonlet_acceleration(p, i).norm(), Wz2 = omega_z_ * omega_z_;
   for (std::uint32_t k = nl.start[i]; k < nl.start[i + 1]; ++k) {
     const std::uint32_t j = nl.partner[k];
     const Vec3 d = x - p.x[j], u = v - p.v[j];
@@ -183,20 +183,18 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   for (std::size_t i = 0; i < p.nlocal; ++i)
     if (mode_of(p, i) == kFree || gravity_) p.v[i] += (0.5 * delta_) * slow_acceleration(p, i, mode_of(p, i) == kFree);
   in_long_step_ = true;
-  // Fast free particles are moved every step (exact map, cheap), so that the drift bound of the
-  // rest allows about a long step between rebuilds: epicycle speed above skin / (4 Delta).
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
-    if (mode_of(p, i) != kFree) continue;
-    const double w = 2 * (p.v[i][0] - 1.5 * omega_ * p.x[i][1]);
-    if (std::sqrt(w * w + p.v[i][1] * p.v[i][1]) > skin_ / (4 * delta_)) set_mode(p, i, kDrifting);
-  }
   make_lists(p);
   watch_dirty_ = true;  // after this step's ghost update has carried the new modes
   // Drift bound from here (the stream at t0 is one step short of this step's).
   const double stream0 = sim.stepping.stream - (sim.domain.shear.enabled ? sim.domain.shear.rate * dt_ : 0.0);
+  // Fast free particles (epicycle speed above skin / (4 Delta)) are bounded on their own, so
+  // that the shared bound of the rest allows about a long step between rebuilds.
+  const double fast = skin_ / (4 * delta_);
   free_drift_ = free_dy_ = free_speed_ = free_vz_ = 0;
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (mode_of(p, i) != kFree) continue;
+    const double wi = 2 * (p.v[i][0] - 1.5 * omega_ * p.x[i][1]);
+    if (std::sqrt(wi * wi + p.v[i][1] * p.v[i][1]) > fast) continue;
     const Vec3& x = p.x[i];
     const Vec3& xb = p.x_build[i];
     const Vec3& v = p.v[i];
@@ -216,15 +214,47 @@ void MultiRateHill::begin_long_step(Simulation& sim) {
   free_dy_ = m[1];
   free_speed_ = m[2];
   free_vz_ = m[3];
+  fast_bounds(sim, stream0, false);
+}
+
+void MultiRateHill::fast_bounds(const Simulation& sim, double stream, bool rebuilt) {
+  // Displacement D since the build, relative to the imposed flow there: dD/dtau = u + gamma
+  // (y - y_b) e_x + v_z e_z, with u = v - 3/2 Omega y e_x. Along a free epicycle (2 u_x, u_y)
+  // turns at Omega with invariant length M, so |u'| <= Omega M, |u_y| <= M and |v_z| <= Z =
+  // |(v_z, Omega_z z)|: |D(tau)| <= |D0| + (|u0| + gamma |dy0| + Z) tau + (Omega + gamma) M tau^2 / 2.
+  // Tight over a long step (Omega Delta ~ 0.006): the fast ones force rebuilds about as late
+  // as when they were moved every step, and cost nothing between long steps.
+  const ParticleStore& p = sim.particles;
+  const double rate = sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0, K = 1.5 * omega_;
+  fast_a_.clear();
+  fast_b_.clear();
+  fast_c_.clear();
+  fast_u2_ = 0;
+  for (std::size_t i = 0; i < p.nlocal; ++i) {
+    if (mode_of(p, i) != kFree) continue;
+    const Vec3& x = p.x[i];
+    const Vec3& v = p.v[i];
+    const double ux = v[0] - K * x[1], M = std::sqrt(4 * ux * ux + v[1] * v[1]);
+    if (M <= free_speed_) continue;  // within the shared bound
+    const double Z = planar_ ? 0.0 : std::hypot(v[2], omega_z_ * x[2]);
+    double a = 0, dy = 0;
+    if (!rebuilt) {  // since the build (a rebuild's D0 is zero)
+      const Vec3& xb = p.x_build[i];
+      const Vec3 d(x[0] - xb[0] - stream * xb[1], x[1] - xb[1], x[2] - xb[2]);
+      a = d.norm();
+      dy = std::abs(d[1]);
+    }
+    fast_a_.push_back(a);
+    fast_b_.push_back(std::hypot(ux, v[1]) + rate * dy + Z);
+    fast_c_.push_back(0.5 * (omega_ + rate) * M);
+    fast_u2_ = std::max(fast_u2_, 1.25 * M * M + Z * Z);
+  }
 }
 
 void MultiRateHill::make_lists(const ParticleStore& p) {
   contact_.clear();
-  drifting_.clear();
-  for (std::size_t i = 0; i < p.nlocal; ++i) {
+  for (std::size_t i = 0; i < p.nlocal; ++i)
     if (on_contact_steps(mode_of(p, i))) contact_.push_back(static_cast<std::uint32_t>(i));
-    else if (mode_of(p, i) == kDrifting) drifting_.push_back(static_cast<std::uint32_t>(i));
-  }
 }
 
 void MultiRateHill::materialize(Simulation& sim) {
@@ -260,6 +290,7 @@ void MultiRateHill::post_rebuild(Simulation& sim) {
   make_lists(p);
   watch_dirty_ = true;
   free_drift_ = free_dy_ = 0;  // built here (the epicycle speeds are invariants of the free motion)
+  fast_bounds(sim, 0.0, true);  // slots moved; all at the present time
 }
 
 void MultiRateHill::find_watched(const Simulation& sim) {
@@ -286,13 +317,12 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
   if (!in_long_step_) {
     begin_long_step(sim);  // kicks the free particles and sets every mode: all ghosts change
   } else {
-    // Since the last ghost update only the particles on contact steps (their last kick, this
-    // drift) and the drifting ones changed: the free ones keep their state of t_ref. (A rebuild
-    // in between made the ghosts anew from the present state; the particles it woke send
-    // their ghosts in pre_force.)
+    // Since the last ghost update only the particles on contact steps changed (their last
+    // kick, this drift): the free ones keep their state of t_ref. (A rebuild in between made
+    // the ghosts anew from the present state; the particles it woke send their ghosts in
+    // pre_force.)
     sim.stepping.moved_known = true;
     sim.stepping.moved.assign(contact_.begin(), contact_.end());
-    sim.stepping.moved.insert(sim.stepping.moved.end(), drifting_.begin(), drifting_.end());
   }
   const double dt = dt_, h = 0.5 * dt_, stream = sim.stepping.stream, c = rot_c_, s = rot_s_;
   const bool planar = planar_;
@@ -303,10 +333,6 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
   const double* IM = p.inv_mass.data();
   double m0 = 0, u2 = 0;  // largest drift^2 and |v - flow|^2 of the particles moved here
   const double rate = sim.domain.shear.enabled ? sim.domain.shear.rate : 0.0;
-  auto speed2 = [&](std::size_t i) {
-    const double ux = V[i][0] - rate * X[i][1];
-    return ux * ux + V[i][1] * V[i][1] + V[i][2] * V[i][2];
-  };
   // The new state is formed in scalars and stored once: a vector load of components just
   // stored one by one (the velocity, or a Vec3 built on the stack) stalls, as store forwarding
   // fails; it was the loop's largest cost.
@@ -326,19 +352,17 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
     m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
     u2 = std::max(u2, ux * ux + vy * vy + vz * vz);
   }
-  const Epicycle step(omega_, omega_z_, dt, planar);
-  for (const std::uint32_t i : drifting_) {
-    step.advance(X[i], V[i]);
-    *p.column(work_column_, i) += 1;
-    const double dx = X[i][0] - XB[i][0] - stream * XB[i][1], dy = X[i][1] - XB[i][1], dz = X[i][2] - XB[i][2];
-    m0 = std::max(m0, dx * dx + dy * dy + dz * dz);
-    u2 = std::max(u2, speed2(i));
-  }
   // The free particles have not moved in memory: the farthest their epicycles can have taken
   // them from the build position. |u_x| <= M/2, |u_y| <= M with M = |(2 u_x, u_y)| invariant,
   // and the flow at the particle differs from the flow at its build position by gamma |dy|.
-  if (contact_.size() + drifting_.size() < p.nlocal) {
-    const double tau = sim.time - t_ref_, M = free_speed_;
+  // The fast ones each by their own bound (fast_bounds).
+  if (contact_.size() < p.nlocal) {
+    const double tau = sim.time - t_ref_;
+    double far = 0;
+    for (std::size_t k = 0; k < fast_a_.size(); ++k) far = std::max(far, fast_a_[k] + (fast_b_[k] + fast_c_[k] * tau) * tau);
+    m0 = std::max(m0, far * far);
+    u2 = std::max(u2, fast_u2_);
+    const double M = free_speed_;
     const double ux = 0.5 * M + rate * (free_dy_ + M * tau);
     const double bound = free_drift_ + std::sqrt(ux * ux + M * M + free_vz_ * free_vz_) * tau;
     m0 = std::max(m0, bound * bound);
@@ -350,7 +374,7 @@ void MultiRateHill::initial_integrate(Simulation& sim) {
     for (const std::uint32_t i : contact_) p.omega[i] += (h * p.inv_inertia[i]) * p.torque[i];
   contact_particle_steps += static_cast<long long>(contact_.size());
   for (const std::uint32_t i : contact_) *p.column(work_column_, i) += 1;
-  stepped_particle_steps += static_cast<long long>(contact_.size() + drifting_.size());
+  stepped_particle_steps += static_cast<long long>(contact_.size());
   free_particle_steps += static_cast<long long>(p.nlocal - contact_.size());
 }
 

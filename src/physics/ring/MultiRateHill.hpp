@@ -19,7 +19,8 @@
 // symplectic epicycle integrator of ring codes. A step's cost is then that of the few particles
 // on contact steps, plus a bound: the neighbour list's skin test takes, for the free particles,
 // the largest displacement their epicycles can have made since t_ref (speed bounds from each
-// epicycle's invariant |(2 u_x, u_y)|), so the list stays valid without moving them.
+// epicycle's invariant |(2 u_x, u_y)|; the fast ones, flung by the moonlet, each their own),
+// so the list stays valid without moving them.
 //
 // Nothing is missed by the classification: before each step's forces every free particle with a
 // partner on contact steps (owned or ghost; ghosts carry the mode) computes its present position
@@ -109,9 +110,8 @@ class MultiRateHill : public Module {
   long missed = 0;         // free particles found touching the moonlet at a long step's end (0 expected)
 
  private:
-  // kFree: stored state of time t_ref; kDrifting: free, but on a fast epicycle (from a moonlet
-  // encounter), so moved every step by the exact map to keep the drift bound of the others tight.
-  enum Mode : std::uint8_t { kFree = 0, kContact = 1, kWoken = 2, kDrifting = 3 };
+  // kFree: stored state of time t_ref (3 was "drifting", moved every step: no longer made).
+  enum Mode : std::uint8_t { kFree = 0, kContact = 1, kWoken = 2 };
   static bool on_contact_steps(std::uint8_t m) { return m == kContact || m == kWoken; }
   // A particle's mode: a column this module declares (ParticleStore::declare), so it migrates,
   // reaches the ghosts every step and goes into snapshots with no code elsewhere.
@@ -148,7 +148,16 @@ class MultiRateHill : public Module {
   std::vector<std::uint32_t> contact_;  // owned slots on contact steps (ascending)
   std::vector<std::uint32_t> watch_;    // free owned slots with a partner on contact steps (ascending)
   std::vector<std::uint32_t> woken_;    // scratch
-  std::vector<std::uint32_t> drifting_; // owned slots in mode kDrifting (ascending)
+  // Free particles on fast epicycles (flung by the moonlet): a bound of their own, so that they
+  // do not widen the shared one. Particle k's displacement since the list was built is at most
+  // A + B tau + C tau^2 at tau = time - t_ref (see fast_bound). Entries of particles woken since
+  // stay (a bound that holds no longer matters: their drift is counted as they move).
+  std::vector<double> fast_a_, fast_b_, fast_c_;
+  double fast_u2_ = 0;  // their largest |v - flow|^2 bound
+  // The bounds of the free particles faster than the shared bound's free_speed_, from their
+  // present (synchronised) state: at a long step's start (stream: the flow's offset since
+  // the build) or right after a rebuild (rebuilt: D0 = 0).
+  void fast_bounds(const Simulation& sim, double stream, bool rebuilt);
   double skin_;
   double t_ref_ = 0;                    // time of the free particles' stored state
   // Drift bound of the free particles since t_ref: displacement from the build position then,
