@@ -234,8 +234,9 @@ void MultiRateHill::fast_bounds(const Simulation& sim, double stream, bool rebui
     if (mode_of(p, i) != kFree) continue;
     const Vec3& x = p.x[i];
     const Vec3& v = p.v[i];
-    const double ux = v[0] - K * x[1], M = std::sqrt(4 * ux * ux + v[1] * v[1]);
-    if (M <= free_speed_) continue;  // within the shared bound
+    const double ux = v[0] - K * x[1], M2 = 4 * ux * ux + v[1] * v[1];
+    if (M2 < free_speed_ * free_speed_ * (1 - 1e-12)) continue;  // within the shared bound (with room for rounding)
+    const double M = std::sqrt(M2);
     const double Z = planar_ ? 0.0 : std::hypot(v[2], omega_z_ * x[2]);
     double a = 0, dy = 0;
     if (!rebuilt) {  // since the build (a rebuild's D0 is zero)
