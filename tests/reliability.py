@@ -348,9 +348,16 @@ with h5py.File(f"{work}/r1/trajectory.h5md", "r") as f:
 check("run-trajectory's file has h5md/author and creator@version", rc == 0 and creator_ok, out)
 
 # ---- 6. a write failure on any rank ends the job, names the file and the reason
-def disk_full_case(label, args, env, expect_file, run_dir):
+def disk_full_case(label, args, env, expect_file, run_dir, failing_rank=None):
     rc, out, secs = run(args, env=env, timeout=90)
     ok = rc not in (0, "hung") and secs < 30 and "No space left on device" in out and expect_file in out
+    if failing_rank is not None:  # the failing rank records the error before it aborts the job
+        try:
+            s = summary(run_dir)
+            ok = ok and s["status"] == "error" and f"rank {failing_rank}" in s["stop_reason"] \
+                and expect_file in s["stop_reason"]
+        except (OSError, ValueError, KeyError) as e:
+            ok, out = False, out + f"\nno summary.json naming rank {failing_rank}: {e}"
     try:
         frames = complete_frames(run_dir)
         ok = ok and all(not f.endswith(".h5md") or f in frames for f in os.listdir(run_dir) if f.startswith("snap_"))
@@ -362,9 +369,9 @@ def disk_full_case(label, args, env, expect_file, run_dir):
 more = ["--set", "time.end=4e-5", "--set", "output.snapshot_every=1e-5"]
 disk_full_case("injected failure on rank 1 mid-snapshot (rank 0 still writing)",
                ["gas", "--out", "inj1", *more], {"CASSINI_FAIL_WRITE": "snap_000000100@1"},
-               "snap_000000100.h5md.partial", f"{work}/inj1")
+               "snap_000000100.h5md.partial", f"{work}/inj1", failing_rank=1)
 disk_full_case("injected failure of observables.h5md", ["gas", "--out", "inj2", *more],
-               {"CASSINI_FAIL_WRITE": "observables.h5md"}, "observables.h5md", f"{work}/inj2")
+               {"CASSINI_FAIL_WRITE": "observables.h5md"}, "observables.h5md", f"{work}/inj2", failing_rank=0)
 rc, out, _ = run(["r1", "--out", "inj_fields.h5"], exe=cg, env={"CASSINI_FAIL_WRITE": "fields"})
 check("cassini-cg: an injected write failure exits 4 naming the file, no fields.h5",
       rc == 4 and "inj_fields.h5.partial" in out and not os.path.exists(f"{work}/inj_fields.h5"), f"rc={rc} {out}")

@@ -118,6 +118,16 @@ TEST(CaseFile, UnknownKeysAndModulesAreRefused) {
   expect_error({"particles.init=\"poured\""}, "particles.init", "\"random\", \"lattice\"");
 }
 
+TEST(CaseFile, MultiRateNeedsTheKeplerianShear) {
+  // Its free particles follow Hill's equations (shear 1.5 Omega0) and their drift bounds are
+  // taken against the imposed flow: another shear rate would break the neighbour list's bound.
+  const std::string multirate = "time.integrator=\"multirate\"";
+  EXPECT_EQ(error_of({multirate}, kPropellerPatch), "");
+  const std::string msg = error_of({multirate, "domain.shear_rate=1.0e-4"}, kPropellerPatch);
+  EXPECT_NE(msg.find("domain.shear_rate"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("1.5 Omega0"), std::string::npos) << msg;
+}
+
 TEST(CaseFile, ParticlesThatCannotFitAreRefused) {
   // 40,000 spheres of radius 0.5 mm in 8 cm^3: volume fraction 2.6.
   expect_error({"particles.count=40000"}, "particles.count", "fraction");

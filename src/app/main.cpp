@@ -179,8 +179,9 @@ int main(int argc, char** argv) {
     std::cerr << "error (rank " << rank << "): " << e.what() << std::endl;
     if (out_ptr) {
       out_ptr->log_only(std::string("error (rank ") + std::to_string(rank) + "): " + e.what());
-      // rank 0 can still say so in summary.json (a full disk may refuse that too: abort anyway)
-      try { out_ptr->error_summary(std::string("rank ") + std::to_string(rank) + ": " + e.what()); } catch (...) {}
+      // The failing rank says so in summary.json, whichever it is (rank 0 is aborted with it;
+      // a full disk may refuse that too: abort anyway).
+      try { out_ptr->error_summary(std::string("rank ") + std::to_string(rank) + ": " + e.what(), true); } catch (...) {}
     }
     MPI_Abort(MPI_COMM_WORLD, 4);
   }

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 #include <regex>
+#include <utility>
 
 #include <fcntl.h>
 #include <hdf5.h>
@@ -21,6 +22,11 @@ std::string& log_path() {
   return path;
 }
 
+std::function<void(const std::string&)>& summary_record() {
+  static std::function<void(const std::string&)> record;
+  return record;
+}
+
 herr_t collect(unsigned, const H5E_error2_t* err, void* out) {
   // The walk goes from the innermost (the file driver: errno and strerror) outwards.
   if (err->desc) *static_cast<std::string*>(out) += std::string(err->desc) + "\n";
@@ -30,6 +36,7 @@ herr_t collect(unsigned, const H5E_error2_t* err, void* out) {
 }  // namespace
 
 void set_io_failure_log(const std::string& path) { log_path() = path; }
+void set_io_failure_summary(std::function<void(const std::string&)> record) { summary_record() = std::move(record); }
 
 void io_failure(const std::string& file, const std::string& reason) {
   int rank = 0;
@@ -38,6 +45,12 @@ void io_failure(const std::string& file, const std::string& reason) {
                           " (rank " + std::to_string(rank) + "; the run stops; earlier complete files are intact)";
   std::cerr << msg << std::endl;
   if (!log_path().empty()) std::ofstream(log_path(), std::ios::app) << msg << "\n";
+  if (auto record = std::exchange(summary_record(), nullptr)) {  // once: a failure while recording ends here
+    try {
+      record(msg.substr(7));  // without "error: "
+    } catch (...) {
+    }
+  }
   MPI_Abort(MPI_COMM_WORLD, 4);
   std::abort();  // not reached
 }

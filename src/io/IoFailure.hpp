@@ -6,6 +6,7 @@
 // throws and closes the file while another still writes deadlocks both. MPI_Abort ends every
 // rank within about a second; the frame being written stays under its `.partial` name, so
 // every file that looks complete is complete.
+#include <functional>
 #include <string>
 
 #include <mpi.h>
@@ -18,6 +19,9 @@ namespace cassini {
 
 // Where io_failure also appends its message (rank 0's run.log); empty: stderr only.
 void set_io_failure_log(const std::string& path);
+// What io_failure calls with its message before it aborts, on the rank that failed: the run's
+// summary.json says "error" and why (RunOutput; best effort, it must not fail itself). Empty: none.
+void set_io_failure_summary(std::function<void(const std::string&)> record);
 
 // The operating system's reason why a write to `file` failed ("No space left on device"):
 // from HDF5's error stack when it has one, else by asking the file system.

@@ -107,6 +107,8 @@ RunOutput::RunOutput(const std::string& dir, bool force, MPI_Comm comm, const st
   error.resize(len);
   MPI_Bcast(error.data(), len, MPI_CHAR, 0, comm);
   if (!error.empty()) throw ConfigError(error);
+  // A write that fails on any rank ends the job: that rank says so in summary.json first.
+  set_io_failure_summary([this](const std::string& why) { error_summary(why, true); });
   if (rank_ == 0) {
     set_io_failure_log(dir + "/run.log");
     log_.open(dir + "/run.log");
@@ -387,14 +389,27 @@ void RunOutput::write_header(const std::vector<std::pair<std::string, double>>& 
 }
 
 RunOutput::~RunOutput() {
+  set_io_failure_summary(nullptr);
   if (rank_ != 0 || header_written_ || !obs_.is_open()) return;
   obs_ << kObservablesHeader << "\n";  // best effort: no throwing here
 }
 
-void RunOutput::error_summary(const std::string& reason) {
-  if (rank_ != 0) return;
-  write_text("summary.json", "{\n  \"status\": \"error\",\n  \"stop_reason\": " + json_string(reason) + ",\n" +
-                                 provenance_json() + "  \"run_id\": " + json_string(run_id) + "\n}\n");
+void RunOutput::error_summary(const std::string& reason, bool any_rank) {
+  if (rank_ != 0 && !any_rank) return;
+  const std::string text = "{\n  \"status\": \"error\",\n  \"stop_reason\": " + json_string(reason) + ",\n" +
+                           provenance_json() + "  \"run_id\": " + json_string(run_id) + "\n}\n";
+  if (!any_rank) return write_text("summary.json", text);
+  // The rank that failed, just before it aborts the job: quietly, under a name of its own, and
+  // renamed only when whole (the disk may be what failed).
+  const std::string path = dir_ + "/summary.json";
+  std::string tmp = path + ".partial";
+  tmp.append(".").append(std::to_string(rank_));
+  std::ofstream out(tmp);
+  out << text;
+  out.close();
+  std::error_code ec;
+  if (out) fs::rename(tmp, path, ec);
+  if (!out || ec) fs::remove(tmp, ec);
 }
 
 std::string RunOutput::provenance_json() const {

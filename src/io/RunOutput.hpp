@@ -43,7 +43,10 @@ class RunOutput : public RunSink {
   // Collective. status: "completed", "stopped by a guard" or "error"; reason: why it ended.
   void summary(Simulation& sim, double wall_seconds, long steps_run, const std::string& status,
                const std::string& reason);
-  void error_summary(const std::string& reason);     // rank 0: an error before or outside the step loop
+  // An error before or outside the step loop: rank 0 writes it, or (any_rank) the rank that
+  // failed alone, just before it aborts the job (the other ranks cannot be waited for; best
+  // effort, never a half-written summary.json).
+  void error_summary(const std::string& reason, bool any_rank = false);
   // Rank 0, after summary(): the table of time per stage of the step (Simulation::record.timers).
   const std::string& timing() const { return timing_; }
   void snapshot(Simulation& sim) override;           // collective: dir/snap_<step>.h5md

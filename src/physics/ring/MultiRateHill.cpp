@@ -54,6 +54,16 @@ ModuleKind MultiRateHill::kind() {
     if (s.long_step < c.dt) f.fail("time.long_step", "at least time.dt = " + std::to_string(c.dt));
     s.max_tidal_phase = f.positive("time.max_tidal_phase", 0.1);
     c.set(s);
+    // Free particles follow Hill's equations, whose shear is 3/2 Omega0; their drift bounds are
+    // taken against the imposed flow, so the two must be the same.
+    const double kepler = 1.5 * c.get<HillSettings>().omega0();
+    if (c.sheared() && std::abs(c.shear_rate - kepler) > 1e-12 * kepler) {
+      std::ostringstream os;
+      os.precision(17);
+      os << kepler << " 1/s (1.5 Omega0, or no key) with time.integrator = \"multirate\": its free particles follow "
+            "Hill's equations, whose shear that is";
+      f.fail("domain.shear_rate", os.str());
+    }
   };
   auto make = [](Simulation& sim) {
     auto m = std::make_unique<MultiRateHill>(sim.cfg, sim.dt);
