@@ -126,6 +126,11 @@ TEST(CaseFile, MultiRateNeedsTheKeplerianShear) {
   const std::string msg = error_of({multirate, "domain.shear_rate=1.0e-4"}, kPropellerPatch);
   EXPECT_NE(msg.find("domain.shear_rate"), std::string::npos) << msg;
   EXPECT_NE(msg.find("1.5 Omega0"), std::string::npos) << msg;
+  // Nor without a sheared boundary: a particle riding the shear would drift unbounded.
+  const std::string open = error_of({multirate, "domain.boundary=[\"periodic\", \"open\", \"periodic\"]",
+                                     "particles.shear_flow=false"}, kPropellerPatch);
+  EXPECT_NE(open.find("domain.boundary"), std::string::npos) << open;
+  EXPECT_NE(open.find("lees_edwards"), std::string::npos) << open;
 }
 
 TEST(CaseFile, ParticlesThatCannotFitAreRefused) {

@@ -55,9 +55,13 @@ ModuleKind MultiRateHill::kind() {
     s.max_tidal_phase = f.positive("time.max_tidal_phase", 0.1);
     c.set(s);
     // Free particles follow Hill's equations, whose shear is 3/2 Omega0; their drift bounds are
-    // taken against the imposed flow, so the two must be the same.
+    // taken against the imposed flow, so the two must be the same (without a sheared boundary a
+    // particle riding the Keplerian shear would drift with no bound at all).
+    if (!c.sheared())
+      f.fail("domain.boundary", "a \"lees_edwards\" y boundary with time.integrator = \"multirate\" (the free particles' "
+                                "drift is bounded against the Keplerian shear it imposes)");
     const double kepler = 1.5 * c.get<HillSettings>().omega0();
-    if (c.sheared() && std::abs(c.shear_rate - kepler) > 1e-12 * kepler) {
+    if (std::abs(c.shear_rate - kepler) > 1e-12 * kepler) {
       std::ostringstream os;
       os.precision(17);
       os << kepler << " 1/s (1.5 Omega0, or no key) with time.integrator = \"multirate\": its free particles follow "
