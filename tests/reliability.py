@@ -375,6 +375,21 @@ disk_full_case("injected failure of observables.h5md", ["gas", "--out", "inj2", 
 rc, out, _ = run(["r1", "--out", "inj_fields.h5"], exe=cg, env={"CASSINI_FAIL_WRITE": "fields"})
 check("cassini-cg: an injected write failure exits 4 naming the file, no fields.h5",
       rc == 4 and "inj_fields.h5.partial" in out and not os.path.exists(f"{work}/inj_fields.h5"), f"rc={rc} {out}")
+# Out of memory, for real: a skin of half the box makes every particle every other's neighbour
+# (~1e9 pairs in the 55,000-particle box), under 1 GiB of address space per rank (prlimit).
+prlimit = shutil.which("prlimit")
+if prlimit:
+    rc, out, secs = run([f"--as={1 << 30}", cassini, "gas", "--out", "oom", "--set", "time.end=1e-4",
+                         "--set", "domain.hi=[0.06,0.04,0.04]", "--set", "contact.skin=0.019"], exe=prlimit)
+    try:
+        s = summary(f"{work}/oom")
+        ok = s["status"] == "error" and re.search(r"rank [01]: out of memory", s["stop_reason"]) is not None
+    except (OSError, ValueError, KeyError) as e:
+        ok, out = False, out + f"\nno summary.json naming the rank out of memory: {e}"
+    check(f"out of memory on a rank: all ranks stop in {secs:.1f} s (exit 4), summary.json names the rank",
+          rc == 4 and ok, f"rc={rc} {out}")
+else:
+    print("note: no prlimit: the out-of-memory case is not run")
 tmpfs = f"{work}/tmpfs"
 os.makedirs(tmpfs)
 mounted = os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", tmpfs],

@@ -118,6 +118,16 @@ TEST(CaseFile, UnknownKeysAndModulesAreRefused) {
   expect_error({"particles.init=\"poured\""}, "particles.init", "\"random\", \"lattice\"");
 }
 
+TEST(CaseFile, TheHillFrameNeedsTheKeplerianShear) {
+  // Hill's equations carry the shear 1.5 Omega0; a Lees-Edwards boundary at another rate would
+  // inject an inconsistent flow at every crossing, whatever the integrator.
+  EXPECT_EQ(error_of({}, kPropellerPatch), "");
+  const std::string msg = error_of({"domain.shear_rate=1.0e-4"}, kPropellerPatch);
+  EXPECT_NE(msg.find("domain.shear_rate"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("1.5 Omega0"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("hill"), std::string::npos) << msg;
+}
+
 TEST(CaseFile, MultiRateNeedsTheKeplerianShear) {
   // Its free particles follow Hill's equations (shear 1.5 Omega0) and their drift bounds are
   // taken against the imposed flow: another shear rate would break the neighbour list's bound.

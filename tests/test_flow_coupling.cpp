@@ -134,6 +134,38 @@ TEST(StokesBrinkman, FlowGoesAroundADenseHalfAsTheCrossSectionSolveSays) {
   }
 }
 
+TEST(StokesBrinkman, AnOlderPreconditionerGivesTheSameFlow) {
+  // The coupled solve keeps CG's pressure preconditioner across re-solves (FlowCoupling): built
+  // for an earlier B, it must change the iterations only, never the answer. The half-filled duct
+  // again, its bed's B raised 10x (30 -> 300) with the preconditioner left from the first: the
+  // flow must be the freshly preconditioned solve's and the cross-section solve's.
+  const int ny = 16, nz = 8, nx = 96;
+  const double dx = 1.0 / 16, W = ny * dx, H = nz * dx, eta = 1.0, U = 1.0;
+  const std::vector<char> all(ny * nz, 1);
+  auto bed_of = [&](double B_bed) {
+    std::vector<double> B_row(ny), B_cell(std::size_t(nx) * ny * nz);
+    for (int j = 0; j < ny; ++j) B_row[j] = j < ny / 2 ? B_bed : 0.0;
+    for (std::size_t c = 0; c < B_cell.size(); ++c) B_cell[c] = B_row[(c / nz) % ny];
+    return std::pair{B_row, B_cell};
+  };
+  const StokesGrid g = duct(nx, ny, nz, dx, eta, duct_profile(ny, nz, dx, all, U * W * H));
+  StokesProblem fresh(g, true), kept(g, true);
+  fresh.set_brinkman(bed_of(300.0).second);
+  kept.set_brinkman(bed_of(30.0).second);
+  kept.set_brinkman(bed_of(300.0).second, /*refresh_preconditioner=*/false);
+  const StokesSolution a = fresh.solve(1.0, nullptr, 1e-10), b = kept.solve(1.0, nullptr, 1e-10);
+  ASSERT_LT(b.residual, 1e-10);
+  EXPECT_NE(a.iterations, b.iterations);  // the older preconditioner is in use
+  double largest = 0, difference = 0;
+  for (std::size_t f = 0; f < a.u.size(); ++f) {
+    largest = std::max(largest, std::abs(a.u[f]));
+    difference = std::max(difference, std::abs(a.u[f] - b.u[f]));
+  }
+  EXPECT_LT(difference, 1e-7 * largest);
+  const double G = (layer_pressure(b, nx / 2 - 8, ny, nz) - layer_pressure(b, nx / 2 + 8, ny, nz)) / (16 * dx);
+  EXPECT_NEAR(G / (U * W * H / conductance(ny, nz, dx, eta, bed_of(300.0).first).total), 1.0, 1e-3);
+}
+
 namespace {
 
 // A straight channel 800 x 800 x 100 um filled by a cubic lattice of fixed beads (spacing

@@ -173,7 +173,12 @@ int main(int argc, char** argv) {
     code = 2;
   } catch (const std::bad_alloc&) {
     std::cerr << "error (rank " << rank << "): out of memory" << std::endl;
-    if (out_ptr) out_ptr->log_only("error: out of memory on rank " + std::to_string(rank));
+    if (out_ptr) {
+      out_ptr->log_only("error: out of memory on rank " + std::to_string(rank));
+      // Unwinding to here has freed the simulation (particles, lists, meshes), so the few
+      // kilobytes of summary.json can be had; if not, abort without it.
+      try { out_ptr->error_summary("rank " + std::to_string(rank) + ": out of memory", true); } catch (...) {}
+    }
     MPI_Abort(MPI_COMM_WORLD, 4);
   } catch (const std::exception& e) {  // possibly on one rank only: the others cannot be waited for
     std::cerr << "error (rank " << rank << "): " << e.what() << std::endl;

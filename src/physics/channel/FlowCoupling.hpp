@@ -66,12 +66,14 @@ class FlowCoupling {
   double tolerance_, q0_ = 0, dp0_ = 0;
   double drive_ = 1, pressure_drop_ = 0, solved_sign_ = 0;
   long solves_ = 0;
+  int preconditioner_age_ = 0, iterations_when_fresh_ = 0, last_iterations_ = 0;  // CG's, of the last solves
   StokesGrid grid_;
   std::unique_ptr<StokesProblem> problem_;
   StokesSolution clean_;                   // the coarse solve without beads, at Q0
   std::vector<double> clean_at_cell_;      // its velocity at the cell centres (3 per cell)
   std::vector<double> units_;              // fixed-point quanta of the deposit's channels
   std::vector<double> values_, field_;     // per bead and layer: beta, beta v, beta U0; the node field
+  std::vector<double> column_;             // the node field's channels sampled at one column of cells
   std::vector<double> B_, S_, G_, solved_B_, solved_S_, solved_G_, rhs_;  // per cell (S, G: 3 per cell)
   std::vector<double> pressure_G_, pressure_S_;  // the last solves' pressures: the next ones start there
   NodeField correction_;

@@ -217,8 +217,9 @@ StokesProblem::StokesProblem(const StokesGrid& g, bool repeatable) : m_(std::mak
   set_brinkman({});
 }
 
-void StokesProblem::set_brinkman(const std::vector<double>& per_cell) {
+void StokesProblem::set_brinkman(const std::vector<double>& per_cell, bool refresh_preconditioner) {
   Impl& m = *m_;
+  const bool had_preconditioner = m.preconditioned;
   m.preconditioned = !per_cell.empty();
   for (int a = 0; a < 3; ++a) {
     if (!per_cell.empty()) {
@@ -230,7 +231,7 @@ void StokesProblem::set_brinkman(const std::vector<double>& per_cell) {
     }
     if (!m.velocity[a]->factorize(m.A[a])) throw std::runtime_error("Stokes solve: velocity operator not positive definite");
   }
-  if (!m.preconditioned) return;
+  if (!m.preconditioned || (had_preconditioner && !refresh_preconditioner)) return;
   SpMat P(m.np, m.np);
   for (int a = 0; a < 3; ++a) {
     Vec inverse_diagonal = m.A[a].diagonal().cwiseInverse();
@@ -263,27 +264,35 @@ StokesSolution StokesProblem::solve(double inflow_scale, const std::vector<doubl
   auto velocity = [&](const Vec& p, Vec* U) {  // U = A^-1 (b + D^T p)
     for (int a = 0; a < 3; ++a) U[a] = m.solve_velocity(a, b[a] + m.Dm[a].transpose() * p);
   };
-  auto schur = [&](const Vec& p) {  // S p = D A^-1 D^T p
+  auto schur = [&](const Vec& p, Vec* Y = nullptr) {  // S p = D A^-1 D^T p; Y: A^-1 D^T p
     Vec out = Vec::Zero(np);
-    for (int a = 0; a < 3; ++a) out += m.Dm[a] * m.solve_velocity(a, m.Dm[a].transpose() * p);
+    for (int a = 0; a < 3; ++a) {
+      Vec y = m.solve_velocity(a, m.Dm[a].transpose() * p);
+      out += m.Dm[a] * y;
+      if (Y) Y[a] = std::move(y);
+    }
     return out;
   };
+  // With a Brinkman term (the coupled re-solves) the velocity is carried along with p, U = A^-1 b
+  // + sum alpha A^-1 D^T dir, from the solves each iteration makes anyway: no final velocity
+  // solve. The plain solve computes it at the end, as it always has (its cached fields keep their bits).
+  const bool track = m.preconditioned;
+  Vec U[3], Y[3];
 
   // ---- CG on S p = c - D A^-1 b; the pressure is fixed up to a constant (kept at mean 0).
   Vec r = inflow_scale == 1 ? m.inflow_div : Vec(inflow_scale * m.inflow_div);
-  {
-    Vec U0[3];
-    velocity(Vec::Zero(np), U0);
-    for (int a = 0; a < 3; ++a) r -= m.Dm[a] * U0[a];
-  }
+  velocity(Vec::Zero(np), U);
+  for (int a = 0; a < 3; ++a) r -= m.Dm[a] * U[a];
   r.array() -= r.mean();
   Vec p = Vec::Zero(np);
   const double norm0 = std::max(r.norm(), 1e-300);  // the tolerance is relative to a cold start's residual
   if (pressure_guess) {
     for (int c = 0; c < nx * ny * nz; ++c)
       if (m.pid[c] >= 0) p[m.pid[c]] = (*pressure_guess)[c];
-    r -= schur(p);
+    r -= schur(p, Y);
     r.array() -= r.mean();
+    if (track)
+      for (int a = 0; a < 3; ++a) U[a] += Y[a];
   }
   StokesSolution sol;
   int it = 0;
@@ -309,9 +318,10 @@ StokesSolution StokesProblem::solve(double inflow_scale, const std::vector<doubl
     Vec z = precondition(r), dir = z;
     double rz = r.dot(z);
     for (; it < max_iterations && r.norm() > tolerance * norm0; ++it) {
-      Vec Sd = schur(dir);
+      Vec Sd = schur(dir, Y);
       const double alpha = rz / dir.dot(Sd);
       p += alpha * dir;
+      for (int a = 0; a < 3; ++a) U[a] += alpha * Y[a];
       r -= alpha * Sd;
       r.array() -= r.mean();
       z = precondition(r);
@@ -323,8 +333,7 @@ StokesSolution StokesProblem::solve(double inflow_scale, const std::vector<doubl
   sol.iterations = it;
   sol.residual = r.norm() / norm0;
 
-  Vec U[3];
-  velocity(p, U);
+  if (!track) velocity(p, U);
   std::vector<double>* out[3] = {&sol.u, &sol.v, &sol.w};
   for (int a = 0; a < 3; ++a) {
     const Component& c = m.comp[a];

@@ -59,7 +59,11 @@ class StokesProblem {
   explicit StokesProblem(const StokesGrid& g, bool repeatable = false);
   ~StokesProblem();
   // B per cell (nx*ny*nz, kg m^-3 s^-1; a face takes the mean of its two cells); empty: none.
-  void set_brinkman(const std::vector<double>& per_cell);
+  // refresh_preconditioner = false keeps CG's pressure preconditioner from an earlier B (still
+  // symmetric positive definite, so CG converges to the same answer, in a few more iterations
+  // while B has moved little) and saves its assembly and factorisation; the velocity blocks are
+  // always refactorised (the Schur complement needs them exact).
+  void set_brinkman(const std::vector<double>& per_cell, bool refresh_preconditioner = true);
   // The inflow profile scaled by inflow_scale, and a body force per cell (3 per cell, N m^-3;
   // null: none). The solution is linear in both. pressure_guess (a StokesSolution::p) starts the
   // iteration; the tolerance stays relative to a cold start's residual.

@@ -74,9 +74,13 @@ void VolumeFraction::update(const ParticleStore& p, MPI_Comm comm) {
   for (std::size_t n = 0; n < phi_.size(); ++n) phi_[n] = total_[n] / kFixedPoint;
 }
 
-double VolumeFraction::at(double x, double y) const { return sample(phi_, 1, 0, x, y); }
+double VolumeFraction::at(double x, double y) const {
+  double phi;
+  sample(phi_, 1, x, y, &phi);
+  return phi;
+}
 
-double VolumeFraction::sample(const std::vector<double>& field, int channels, int c, double x, double y) const {
+void VolumeFraction::sample(const std::vector<double>& field, int channels, double x, double y, double* out) const {
   // Bilinear in the node field, which already is the kernel average: a second kernel mean
   // here would smooth twice (an effective width sqrt(2) w instead of w).
   const double s = (x - x0_) / h_, t = (y - y0_) / h_;
@@ -85,20 +89,26 @@ double VolumeFraction::sample(const std::vector<double>& field, int channels, in
   const double fx = std::clamp(s - i, 0.0, 1.0), fy = std::clamp(t - j, 0.0, 1.0);
   // Only fluid nodes count: nodes inside a wall receive no volume (the deposit is normalised
   // over the fluid nodes), so including them would dilute phi next to the walls.
-  double num = 0, den = 0;
+  std::fill(out, out + channels, 0.0);
+  double den = 0;
   auto add = [&](int n, double w) {
     if (!fluid_[n]) return;
-    num += w * field[std::size_t(n) * channels + c];
+    const double* f = &field[std::size_t(n) * channels];
+    for (int c = 0; c < channels; ++c) out[c] += w * f[c];
     den += w;
   };
   add(i * ny_ + j, (1 - fx) * (1 - fy));
   add(i * ny_ + j + 1, (1 - fx) * fy);
   add((i + 1) * ny_ + j, fx * (1 - fy));
   add((i + 1) * ny_ + j + 1, fx * fy);
-  if (den > 1e-3) return num / den;
-  double value = 0;  // no fluid node around (x, y), e.g. deep in a corner: the kernel mean
-  for_nodes(x, y, [&](int n, double w) { value += w * field[std::size_t(n) * channels + c]; });
-  return value;
+  if (den > 1e-3) {
+    for (int c = 0; c < channels; ++c) out[c] /= den;
+    return;
+  }
+  std::fill(out, out + channels, 0.0);  // no fluid node around (x, y), e.g. deep in a corner: the kernel mean
+  for_nodes(x, y, [&](int n, double w) {
+    for (int c = 0; c < channels; ++c) out[c] += w * field[std::size_t(n) * channels + c];
+  });
 }
 
 void VolumeFraction::deposit(const ParticleStore& p, const std::vector<double>& values, const std::vector<double>& unit,

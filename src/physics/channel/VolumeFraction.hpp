@@ -38,8 +38,9 @@ class VolumeFraction {
   // number of ranks (collective).
   void deposit(const ParticleStore& p, const std::vector<double>& values, const std::vector<double>& unit,
                std::vector<double>& out, MPI_Comm comm) const;
-  // Channel c of such a field at (x, y): bilinear over the surrounding fluid nodes, as at().
-  double sample(const std::vector<double>& field, int channels, int c, double x, double y) const;
+  // Every channel of such a field at (x, y) into out[0 .. channels): bilinear over the
+  // surrounding fluid nodes, as at().
+  void sample(const std::vector<double>& field, int channels, double x, double y, double* out) const;
 
  private:
   template <class F> void for_nodes(double x, double y, F&& f) const;  // f(node, normalised weight)

@@ -1,6 +1,7 @@
 #include "physics/ring/HillFrame.hpp"
 
 #include <cmath>
+#include <sstream>
 
 #include "core/CaseFile.hpp"
 #include "core/Simulation.hpp"
@@ -19,7 +20,20 @@ ModuleKind HillFrame::kind() {
       f.fail("hill.vertical_frequency", "Omega_z / Omega0 >= 1 (1: Saturn's tide alone; ring codes use 2-3.6 to mimic self-gravity)");
     c.set(h);
     c.frame_rotation = h.omega0();
-    c.shear_rate = 1.5 * h.omega0();  // the default of domain.shear_rate: v_x = 1.5 Omega0 y
+    // Hill's equations carry the Keplerian shear v_x = 1.5 Omega0 y (the default of
+    // domain.shear_rate); a sheared boundary moving at another rate would feed the ring an
+    // inconsistent flow at every crossing.
+    const double kepler = 1.5 * h.omega0();
+    if (c.sheared()) {
+      const double rate = f.number("domain.shear_rate", kepler);
+      if (std::abs(rate - kepler) > 1e-12 * kepler) {
+        std::ostringstream os;
+        os.precision(17);
+        os << kepler << " 1/s (1.5 Omega0, or no key) with the \"hill\" module: the shear of Hill's equations";
+        f.fail("domain.shear_rate", os.str());
+      }
+    }
+    c.shear_rate = kepler;
   };
   return {"hill", {}, read, [](Simulation& sim) { return std::make_unique<HillFrame>(sim.cfg); }};
 }
