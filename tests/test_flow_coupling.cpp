@@ -170,8 +170,9 @@ namespace {
 
 // A straight channel 800 x 800 x 100 um filled by a cubic lattice of fixed beads (spacing
 // 25 um: 32 x 32 x 4), volume fraction phi, fixed flow rate; the coupling grid's cells are the
-// lattice's.
-std::unique_ptr<Simulation> packed_bed(double phi) {
+// lattice's. Every bead moves at `velocity` (the set-up's forced solve takes that as given).
+std::unique_ptr<Simulation> packed_bed(double phi, const std::vector<std::string>& overrides = {},
+                                       const Vec3& velocity = Vec3::Zero()) {
   const std::string text = R"(modules = ["channel", "drag"]
 seed = 1
 [domain]
@@ -200,14 +201,14 @@ width = 2.5e-5
 [time]
 end = 1.0
 )";
-  auto sim = make_sim(text);
+  auto sim = make_sim(text, overrides);
   const double L = 2.5e-5, d = L * std::cbrt(6 * phi / std::numbers::pi), a = d / 2;
   const double m = 1050 * 4.0 / 3.0 * std::numbers::pi * a * a * a;
   std::int64_t id = 0;
   for (int i = 0; i < 32; ++i)
     for (int j = 0; j < 32; ++j)
       for (int k = 0; k < 4; ++k)
-        sim->particles.add(id++, 0, a, m, Vec3(-4e-4 + (i + 0.5) * L, -4e-4 + (j + 0.5) * L, (k + 0.5) * L), Vec3::Zero());
+        sim->particles.add(id++, 0, a, m, Vec3(-4e-4 + (i + 0.5) * L, -4e-4 + (j + 0.5) * L, (k + 0.5) * L), velocity);
   sim->setup();
   return sim;
 }
@@ -263,6 +264,47 @@ TEST(FlowCoupling, PressureDropThroughAFixedBedIsCarmanKozenysAndBalancesTheDrag
     EXPECT_GT(on_beads, 0.98 * (dp - c.bead_free_pressure_drop()) * A * per_length) << phi;
     EXPECT_LT(on_beads, 1.02 * dp * A * per_length) << phi;
   }
+}
+
+TEST(FlowCoupling, APressureDriveLetsThroughWhatDarcyAndTheRateDriveAllow) {
+  // flow.drive = "pressure" holds the bead-free channel's pressure drop dp0 (at Q0); the flow
+  // rate is the unknown, found from two solves (the responses to the beads' standstill drag and
+  // to their motion). Two checks against other calculations:
+  //  - Darcy: through the fixed bed of the test above (phi = 0.4), whose pressure drop at Q0
+  //    Darcy's parallel columns give (dp_darcy, checked there to 2.5 %), the flow is linear in
+  //    the drop: Q = Q0 dp0 / dp_darcy, to the same 2.5 %.
+  //  - The rate drive, one solve of another right-hand side: the pressure drop is affine in the
+  //    flow rate and the beads' velocity, dp = a Q + b V. Two rate-driven beds, at rest and
+  //    translating at V, give a Q0 and b V; the pressure drive with the bed translating must then
+  //    pass Q = (dp0 - b V) / a, to the solves' tolerance (relative residual 1e-4): 1e-3. The bed
+  //    moving with the mean flow drags the fluid along, so this Q is ~80x the resting bed's: a
+  //    sign wrong in either response fails it.
+  const double phi = 0.4, L = 2.5e-5, H = 1e-4, W = 8e-4, A = W * H, bed = 8e-4, length = bed - L, U = 1.0e-3;
+  const double q0 = U * A;
+  const std::vector<std::string> pressure = {"flow.drive=\"pressure\""};
+  auto rest = packed_bed(phi, pressure);
+  const auto* drag = rest->find<StokesDrag>();
+  const FlowCoupling& c = *drag->coupling();
+  const ParticleStore& p = rest->particles;
+  std::vector<double> column(32, 0.0);
+  for (std::size_t i = 0; i < p.nlocal; ++i) column[static_cast<int>((p.x[i][1] + 4e-4) / L)] += drag->drag_coefficient(i);
+  double conductance = 0;
+  for (double b : column) conductance += L * H / (b / (bed * L * H));
+  const DuctFlow clean(W, H, U, 40);
+  double sampled = 0;
+  for (int j = 0; j < 32; ++j)
+    for (int k = 0; k < 4; ++k) sampled += clean.velocity(-0.5 * W + (j + 0.5) * L, (k + 0.5) * L) / (32 * 4);
+  const double darcy = sampled * A / conductance * length, dp0 = c.bead_free_pressure_drop();
+  EXPECT_NEAR(c.flow_rate() / (q0 * dp0 / darcy), 1.0, 0.025) << c.flow_rate() << " m^3/s against " << q0 * dp0 / darcy;
+  EXPECT_NEAR(c.pressure_drop() / dp0, 1.0, 1e-9);
+
+  const Vec3 V(U, 0, 0);
+  const double aQ0 = packed_bed(phi)->find<StokesDrag>()->coupling()->pressure_drop();
+  const double bV = packed_bed(phi, {}, V)->find<StokesDrag>()->coupling()->pressure_drop() - aQ0;
+  const double expected = q0 * (dp0 - bV) / aQ0;
+  const double q = packed_bed(phi, pressure, V)->find<StokesDrag>()->coupling()->flow_rate();
+  EXPECT_NEAR(q / expected, 1.0, 1e-3) << q << " m^3/s against " << expected;
+  EXPECT_GT(q, 20 * c.flow_rate());
 }
 
 TEST(FlowCoupling, BadSettingsAreRefusedByName) {
