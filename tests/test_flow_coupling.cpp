@@ -277,7 +277,7 @@ TEST(FlowCoupling, APressureDriveLetsThroughWhatDarcyAndTheRateDriveAllow) {
   //    flow rate and the beads' velocity, dp = a Q + b V. Two rate-driven beds, at rest and
   //    translating at V, give a Q0 and b V; the pressure drive with the bed translating must then
   //    pass Q = (dp0 - b V) / a, to the solves' tolerance (relative residual 1e-4): 1e-3. The bed
-  //    moving with the mean flow drags the fluid along, so this Q is ~80x the resting bed's: a
+  //    moving with the mean flow drags the fluid along, so this Q is ~240x the resting bed's: a
   //    sign wrong in either response fails it.
   const double phi = 0.4, L = 2.5e-5, H = 1e-4, W = 8e-4, A = W * H, bed = 8e-4, length = bed - L, U = 1.0e-3;
   const double q0 = U * A;
