@@ -213,17 +213,34 @@ end = 1.0
   return sim;
 }
 
+// Darcy's pressure drop through packed_bed at the flow rate the coupling grid holds for the mean
+// velocity 1 mm/s (the bead-free duct flow sampled at the lattice's 4 layers: 3 % above it, a
+// second-order error of the 4 cells over the height; from the duct series): the flow is flat in
+// each column of beads but for Brinkman layers far thinner than a cell, so -dp/dx = Q' / sum_j
+// (A_j / B_j) over the bed's 32 columns across the width (parallel resistances), B_j the beads'
+// drag coefficients per volume in column j.
+double darcy_pressure_drop(const Simulation& sim) {
+  const double L = 2.5e-5, W = 8e-4, H = 1e-4, bed = 8e-4;
+  const double length = bed - L;  // between the first and the last layer of coupling cells
+  const auto* drag = sim.find<StokesDrag>();
+  const ParticleStore& p = sim.particles;
+  std::vector<double> column(32, 0.0);
+  for (std::size_t i = 0; i < p.nlocal; ++i) column[static_cast<int>((p.x[i][1] + 4e-4) / L)] += drag->drag_coefficient(i);
+  double conductance = 0;
+  for (double b : column) conductance += L * H / (b / (bed * L * H));
+  const DuctFlow clean(W, H, 1.0e-3, 40);
+  double sampled = 0;
+  for (int j = 0; j < 32; ++j)
+    for (int k = 0; k < 4; ++k) sampled += clean.velocity(-0.5 * W + (j + 0.5) * L, (k + 0.5) * L) / (32 * 4);
+  return sampled * W * H / conductance * length;
+}
+
 }  // namespace
 
 TEST(FlowCoupling, PressureDropThroughAFixedBedIsCarmanKozenysAndBalancesTheDrag) {
   // A fixed bed filling the channel, at a fixed flow rate Q. Three independent checks:
-  //  - Darcy: the flow is flat in each column of beads but for Brinkman layers far thinner than a
-  //    cell, so -dp/dx = Q' / sum_j (A_j / B_j) over the bed's 32 columns across the width, B_j
-  //    the beads' drag coefficients per volume in column j (parallel resistances). Q' is the flow
-  //    rate as the coupling grid holds it: the bead-free duct flow sampled where the beads are
-  //    (the lattice's 4 layers: 3 % above Q, a second-order error of the 4 cells over the
-  //    height; from the duct series). The walls' shear over unresolved Brinkman layers adds ~1 %:
-  //    tolerance 2.5 %.
+  //  - Darcy with the beads' own coefficients in parallel columns (darcy_pressure_drop). The
+  //    walls' shear over unresolved Brinkman layers adds ~1 %: tolerance 2.5 %.
   //  - Carman-Kozeny, -dp/dx = 180 eta U phi^2 / (d^2 (1 - phi)^3) at the superficial velocity U:
   //    the coupled drag is Beetstra's f / (1 - phi), above it by (1-phi)^4 (1 + 1.5 sqrt(phi)) /
   //    (10 phi): 6.3 % at phi = 0.4, 2.6 % at 0.5; the 3 % of the sampled flow rate and ~1 % of
@@ -241,16 +258,7 @@ TEST(FlowCoupling, PressureDropThroughAFixedBedIsCarmanKozenysAndBalancesTheDrag
     const double W = 8e-4, H = 1e-4, A = W * H, bed = 8e-4;
     const double length = bed - L;  // between the first and the last layer of coupling cells
     const double dp = c.pressure_drop();
-
-    std::vector<double> column(32, 0.0);
-    for (std::size_t i = 0; i < p.nlocal; ++i) column[static_cast<int>((p.x[i][1] + 4e-4) / L)] += drag->drag_coefficient(i);
-    double conductance = 0;
-    for (double b : column) conductance += L * H / (b / (bed * L * H));
-    const DuctFlow clean(W, H, U, 40);
-    double sampled = 0;
-    for (int j = 0; j < 32; ++j)
-      for (int k = 0; k < 4; ++k) sampled += clean.velocity(-0.5 * W + (j + 0.5) * L, (k + 0.5) * L) / (32 * 4);
-    const double darcy = sampled * A / conductance * length;
+    const double darcy = darcy_pressure_drop(*sim);
     EXPECT_NEAR(dp / darcy, 1.0, 0.025) << "phi " << phi << ": " << dp << " Pa against " << darcy;
 
     const double carman_kozeny = 180 * eta * U * phi * phi / (d * d * std::pow(1 - phi, 3)) * length;
@@ -279,22 +287,11 @@ TEST(FlowCoupling, APressureDriveLetsThroughWhatDarcyAndTheRateDriveAllow) {
   //    pass Q = (dp0 - b V) / a, to the solves' tolerance (relative residual 1e-4): 1e-3. The bed
   //    moving with the mean flow drags the fluid along, so this Q is ~240x the resting bed's: a
   //    sign wrong in either response fails it.
-  const double phi = 0.4, L = 2.5e-5, H = 1e-4, W = 8e-4, A = W * H, bed = 8e-4, length = bed - L, U = 1.0e-3;
-  const double q0 = U * A;
+  const double phi = 0.4, U = 1.0e-3, q0 = U * 8e-4 * 1e-4;
   const std::vector<std::string> pressure = {"flow.drive=\"pressure\""};
   auto rest = packed_bed(phi, pressure);
-  const auto* drag = rest->find<StokesDrag>();
-  const FlowCoupling& c = *drag->coupling();
-  const ParticleStore& p = rest->particles;
-  std::vector<double> column(32, 0.0);
-  for (std::size_t i = 0; i < p.nlocal; ++i) column[static_cast<int>((p.x[i][1] + 4e-4) / L)] += drag->drag_coefficient(i);
-  double conductance = 0;
-  for (double b : column) conductance += L * H / (b / (bed * L * H));
-  const DuctFlow clean(W, H, U, 40);
-  double sampled = 0;
-  for (int j = 0; j < 32; ++j)
-    for (int k = 0; k < 4; ++k) sampled += clean.velocity(-0.5 * W + (j + 0.5) * L, (k + 0.5) * L) / (32 * 4);
-  const double darcy = sampled * A / conductance * length, dp0 = c.bead_free_pressure_drop();
+  const FlowCoupling& c = *rest->find<StokesDrag>()->coupling();
+  const double darcy = darcy_pressure_drop(*rest), dp0 = c.bead_free_pressure_drop();
   EXPECT_NEAR(c.flow_rate() / (q0 * dp0 / darcy), 1.0, 0.025) << c.flow_rate() << " m^3/s against " << q0 * dp0 / darcy;
   EXPECT_NEAR(c.pressure_drop() / dp0, 1.0, 1e-9);
 
