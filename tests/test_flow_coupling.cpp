@@ -168,9 +168,10 @@ TEST(StokesBrinkman, AnOlderPreconditionerGivesTheSameFlow) {
 
 namespace {
 
-// A straight channel 800 x 800 x 100 um filled by a cubic lattice of fixed beads (spacing
-// 25 um: 32 x 32 x 4), volume fraction phi, fixed flow rate; the coupling grid's cells are the
-// lattice's. Every bead moves at `velocity` (the set-up's forced solve takes that as given).
+// A straight channel 800 x 800 x 100 um filled by a cubic lattice of beads (spacing 25 um:
+// 32 x 32 x 4), volume fraction phi, a fixed flow rate unless `overrides` set flow.drive; the
+// coupling grid's cells are the lattice's. Every bead moves at `velocity` (the set-up's forced
+// solve takes that as given; nothing steps).
 std::unique_ptr<Simulation> packed_bed(double phi, const std::vector<std::string>& overrides = {},
                                        const Vec3& velocity = Vec3::Zero()) {
   const std::string text = R"(modules = ["channel", "drag"]
