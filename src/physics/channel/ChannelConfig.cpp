@@ -128,7 +128,14 @@ void read_channel_config(CaseFile& f, Config& c) {
   // [clog]
   ch.clog_window = f.positive("clog.window", 1.0);
   ch.pass_x = f.number("clog.pass_x", ch.neck_x1 + c.max_radius());
-  ch.rest_speed = f.number("clog.rest_speed", 1e-6 * ch.mean_velocity);
+  // Under the pressure drive the flow through a clog falls but keeps bringing beads: the pile
+  // never comes to rest, only the arch does (it creeps as the pile's load grows, ~1e-4 of the
+  // mean velocity; docs/clogging.md "Where the pressure drive's cost per run comes from").
+  const std::string rest_region = f.string("clog.rest_region", ch.pressure_drive ? "neck" : "all");
+  if (rest_region != "all" && rest_region != "neck")
+    f.fail("clog.rest_region", "\"all\" (every bead at rest and the inlet full) or \"neck\" (the beads in the neck at rest)");
+  ch.rest_neck_only = rest_region == "neck";
+  ch.rest_speed = f.number("clog.rest_speed", (ch.rest_neck_only ? 1e-4 : 1e-6) * ch.mean_velocity);
   if (!(ch.rest_speed >= 0)) f.fail("clog.rest_speed", "a speed >= 0 (0 turns the early end at rest off)");
   if (c.has_module("clog") && (ch.pass_x < ch.neck_x1 || ch.pass_x >= c.hi[0])) f.fail("clog.pass_x", "an x between the neck's exit and the domain's end");
   const std::string mode = f.string("clog.mode", "single");

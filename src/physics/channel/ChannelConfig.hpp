@@ -53,6 +53,7 @@ struct ChannelConfig {
   double clog_window = 1.0;     // no passage and no change at the neck for this long = clogged
   double pass_x = 0;            // a particle has escaped once its centre is beyond this x
   double rest_speed = 0;        // every particle slower than this (and the inlet full) = at rest
+  bool rest_neck_only = false;  // clog.rest_region = "neck": only the neck's beads need be at rest
   bool continuous = false;      // clog.mode = "continuous": clear the arch after each clog and go on
   int avalanches = 10;          // continuous mode: end after this many clogs
   double backflush = 0;         // continuous mode: reverse the flow this long after a clog (0: remove the arch)

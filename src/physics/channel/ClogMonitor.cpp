@@ -243,12 +243,16 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
 
 bool ClogMonitor::at_rest(Simulation& sim) const {
   // Collective: every rank reaches this with the same `holding`.
-  double v2 = inlet_ && !inlet_->full() ? 1e300 : 0;
+  const ChannelConfig& ch = cfg_.get<ChannelConfig>();
+  double v2 = inlet_ && !inlet_->full() && !ch.rest_neck_only ? 1e300 : 0;
+  // "neck": the beads the neck's state counts (2 radii upstream of the neck to pass_x).
+  const double lo = ch.rest_neck_only ? ch.neck_x0 - 2 * cfg_.max_radius() : -1e300;
+  const double hi = ch.rest_neck_only ? ch.pass_x : 1e300;
   const ParticleStore& p = sim.particles;
-  for (std::size_t i = 0; i < p.nlocal; ++i) v2 = std::max(v2, p.v[i].squaredNorm());
+  for (std::size_t i = 0; i < p.nlocal; ++i)
+    if (p.x[i][0] > lo && p.x[i][0] <= hi) v2 = std::max(v2, p.v[i].squaredNorm());
   MPI_Allreduce(MPI_IN_PLACE, &v2, 1, MPI_DOUBLE, MPI_MAX, sim.domain.comm);
-  const double vr = cfg_.get<ChannelConfig>().rest_speed;
-  return v2 < vr * vr;
+  return v2 < ch.rest_speed * ch.rest_speed;
 }
 
 void ClogMonitor::publish(Simulation& sim) const {
