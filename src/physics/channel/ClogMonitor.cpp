@@ -148,7 +148,10 @@ void ClogMonitor::check(Simulation& sim) {
   }
   const bool occupied = in_neck_ > 0 || (approach_watched && global[2] > 0);
   const bool holding = occupied && sim.time > last_change_;
-  if (holding && ch.rest_speed > 0 && at_rest(sim)) {
+  // clog.rest_region = "neck" ends early only at an arch in the neck (a clog standing in the
+  // approach of an emptied neck, continuous mode, waits out the window).
+  const bool watched = ch.rest_speed > 0 && (!ch.rest_neck_only || in_neck_ > 0);
+  if (holding && watched && at_rest(sim)) {
     if (rest_since_ < 0) rest_since_ = sim.time;
   } else {
     rest_since_ = -1;
