@@ -151,7 +151,7 @@ void ClogMonitor::check(Simulation& sim) {
   // clog.rest_region = "neck" ends early only at an arch in the neck (a clog standing in the
   // approach of an emptied neck, continuous mode, waits out the window).
   const bool watched = ch.rest_speed > 0 && (!ch.rest_neck_only || in_neck_ > 0);
-  if (holding && watched && at_rest(sim)) {
+  if (holding && watched && at_rest(sim, neck_lo)) {
     if (rest_since_ < 0) rest_since_ = sim.time;
   } else {
     rest_since_ = -1;
@@ -244,12 +244,12 @@ void ClogMonitor::clog_found(Simulation& sim, const std::string& why) {
   }
 }
 
-bool ClogMonitor::at_rest(Simulation& sim) const {
+bool ClogMonitor::at_rest(Simulation& sim, double neck_lo) const {
   // Collective: every rank reaches this with the same `holding`.
   const ChannelConfig& ch = cfg_.get<ChannelConfig>();
   double v2 = inlet_ && !inlet_->full() && !ch.rest_neck_only ? 1e300 : 0;
-  // "neck": the beads the neck's state counts (2 radii upstream of the neck to pass_x).
-  const double lo = ch.rest_neck_only ? ch.neck_x0 - 2 * cfg_.max_radius() : -1e300;
+  // "neck": the beads the neck's state counts (from neck_lo to pass_x).
+  const double lo = ch.rest_neck_only ? neck_lo : -1e300;
   const double hi = ch.rest_neck_only ? ch.pass_x : 1e300;
   const ParticleStore& p = sim.particles;
   for (std::size_t i = 0; i < p.nlocal; ++i)

@@ -42,9 +42,9 @@
 // full window would give. Typically a third of the window is skipped. Under the pressure drive
 // the pile never comes to rest (the flow through a clog falls but keeps bringing beads), and
 // clog.rest_region = "neck" (its default there) asks only the neck's beads, the arch, to be
-// slower than clog.rest_speed (then 1e-4 of the mean velocity, above the arch's elastic creep
-// under the pile's growing load). Not a fixed point: checked against the full window on paired
-// seeds (docs/clogging.md).
+// slower than clog.rest_speed (then 1e-4 of the mean velocity: the arch still creeps as the
+// pile's load grows). Not a fixed point: checked against the full window on paired seeds
+// (docs/clogging.md).
 //
 // The window's cost: every clog is confirmed by clog.window seconds of a packed pile, most of a
 // run's contacts. longest_pause (summary.json, the ensemble CSV) is the longest standstill at
@@ -91,7 +91,7 @@ class ClogMonitor : public Module {
 
  private:
   void check(Simulation& sim);
-  bool at_rest(Simulation& sim) const;
+  bool at_rest(Simulation& sim, double neck_lo) const;
   void clog_found(Simulation& sim, const std::string& why);
   void publish(Simulation& sim) const;
   const Config& cfg_;
