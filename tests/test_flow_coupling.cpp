@@ -305,6 +305,40 @@ TEST(FlowCoupling, APressureDriveLetsThroughWhatDarcyAndTheRateDriveAllow) {
   EXPECT_GT(q, 20 * c.flow_rate());
 }
 
+TEST(FlowCoupling, AStalePreconditionerIsRebuiltAfterAColdSolve) {
+  // The coupled re-solves keep CG's pressure preconditioner until a solve needs 1.5x (+2) the
+  // iterations of a solve on it when fresh. A cold solve (set-up, snapshot, restart: it starts
+  // from zero pressure) takes more iterations than a warm one, so its count must not be that
+  // reference: against it, the rule would stay silent for the preconditioner's 16 solves. The
+  // fixed bed of the tests above, its drag 100x lower in the upper half (y > 0): a cold solve, a
+  // warm one after a change of 1e-3 (the reference), then the lower half's drag doubled (the
+  // iterations rise beyond 1.5x the warm reference but not beyond 1.5x the cold count), and one
+  // more solve, which must rebuild the preconditioner.
+  auto sim = packed_bed(0.4, {"flow.coupling_tolerance=1e-6"});
+  const auto* drag = sim->find<StokesDrag>();
+  const ParticleStore& p = sim->particles;
+  FlowCoupling c(sim->cfg);
+  std::vector<double> beta(p.nlocal);
+  for (std::size_t i = 0; i < p.nlocal; ++i) beta[i] = drag->drag_coefficient(i);
+  const std::vector<Vec3> one_way(p.nlocal, Vec3(1e-3, 0, 0));
+  auto solve_with = [&](double lower, bool force) {
+    std::vector<double> b(beta);
+    for (std::size_t i = 0; i < p.nlocal; ++i) b[i] *= p.x[i][1] < 0 ? lower : 0.01;
+    EXPECT_TRUE(c.update(p, b, one_way, drag->fraction(), 1.0, force, MPI_COMM_WORLD)) << lower;
+    return c.last_iterations();
+  };
+  const int cold = solve_with(1.0, true);
+  const int fresh = solve_with(1.001, false);
+  const int stale = solve_with(2.0, false);
+  EXPECT_EQ(c.preconditioner_builds(), 1);
+  solve_with(2.6, false);
+  const std::string counts =
+      "cold " + std::to_string(cold) + ", warm " + std::to_string(fresh) + ", after the change " + std::to_string(stale);
+  ASSERT_GT(stale, 1.5 * fresh + 2) << "the scene no longer needs a rebuild: " << counts;
+  ASSERT_LE(stale, 1.5 * cold + 2) << "the scene no longer tells the two references apart: " << counts;
+  EXPECT_EQ(c.preconditioner_builds(), 2) << counts;
+}
+
 TEST(FlowCoupling, BadSettingsAreRefusedByName) {
   auto error_of = [](const std::vector<std::string>& overrides) -> std::string {
     try {

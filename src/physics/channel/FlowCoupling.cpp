@@ -136,17 +136,22 @@ void FlowCoupling::solve(double sign, bool warm_start) {
     for (std::size_t k = 0; k < G_.size(); ++k) rhs_[k] = pressure_drive_ ? S_[k] : S_[k] - sign * G_[k];
     dS = problem_->solve(0.0, &rhs_, kSolveTolerance, kMaxIterations, warm ? &pressure_S_ : nullptr);
     if (refresh) {
+      ++preconditioner_builds_;
       preconditioner_age_ = 0;
-      iterations_when_fresh_ = dS.iterations;
+      iterations_when_fresh_ = warm ? dS.iterations : -1;  // a cold solve's count is no warm one's reference
+    } else if (iterations_when_fresh_ < 0) {
+      iterations_when_fresh_ = dS.iterations;  // the first warm solve on a preconditioner a cold solve built
     }
     return std::max(dG.residual, dS.residual) <= kSolveTolerance;
   };
   // CG's pressure preconditioner (an assembly and a factorisation, 45 % of a re-solve's
   // factorising) is rebuilt only at a forced solve (so that a restart repeats the run's choices),
   // after kPreconditionerAge solves, or once the last solve needed 1.5x the iterations it took
-  // when fresh; an older one costs a few iterations, not accuracy (CG stops at the same residual).
+  // when fresh (warm: a cold start takes several times a warm one's iterations, so a preconditioner
+  // built at a cold solve is measured by the first warm solve on it); an older one costs a few
+  // iterations, not accuracy (CG stops at the same residual).
   const bool refresh = !warm || ++preconditioner_age_ >= kPreconditionerAge ||
-                       last_iterations_ > 1.5 * iterations_when_fresh_ + 2;
+                       (iterations_when_fresh_ >= 0 && last_iterations_ > 1.5 * iterations_when_fresh_ + 2);
   if (!run(refresh) && (refresh || !run(true)))
     throw std::runtime_error("two-way coupling: the coarse Stokes-Brinkman solve did not converge in " +
                              std::to_string(kMaxIterations) + " CG iterations (relative residual " +

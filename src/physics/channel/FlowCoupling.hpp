@@ -57,6 +57,8 @@ class FlowCoupling {
   double pressure_drop() const { return pressure_drop_; }    // Pa, over the channel's length
   double bead_free_pressure_drop() const { return dp0_; }    // Pa, at Q0
   long solves() const { return solves_; }
+  long preconditioner_builds() const { return preconditioner_builds_; }  // CG's pressure preconditioner
+  int last_iterations() const { return last_iterations_; }                // CG's, in the last solve
 
  private:
   // A forced solve (set-up, snapshot, restart) starts cold, so that a restarted run repeats it bit
@@ -65,8 +67,8 @@ class FlowCoupling {
   bool pressure_drive_;
   double tolerance_, q0_ = 0, dp0_ = 0;
   double drive_ = 1, pressure_drop_ = 0, solved_sign_ = 0;
-  long solves_ = 0;
-  int preconditioner_age_ = 0, iterations_when_fresh_ = 0, last_iterations_ = 0;  // CG's, of the last solves
+  long solves_ = 0, preconditioner_builds_ = 0;
+  int preconditioner_age_ = 0, iterations_when_fresh_ = -1, last_iterations_ = 0;  // CG's, of the last solves (-1: not yet measured)
   StokesGrid grid_;
   std::unique_ptr<StokesProblem> problem_;
   StokesSolution clean_;                   // the coarse solve without beads, at Q0
