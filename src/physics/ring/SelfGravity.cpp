@@ -286,14 +286,34 @@ void SelfGravity::set_box(const ParticleStore& p, bool whole) {
                 comm_);
 }
 
-double SelfGravity::exchange(const std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
+namespace {
+// Sizes a mesh buffer to n (filled with `value` if given), growing its storage by a quarter more
+// than asked: the layers a ring's particles span grow a little at a time, and each exact-size
+// reallocation of these megabyte buffers is a fresh mapping whose every page faults (main.cpp).
+template <class T>
+void fit(std::vector<T>& v, std::size_t n) {
+  if (n > v.capacity()) v.reserve(n + n / 4);
+  v.resize(n);
+}
+template <class T>
+void fit(std::vector<T>& v, std::size_t n, T value) {
+  if (n > v.capacity()) v.reserve(n + n / 4);
+  v.assign(n, value);
+}
+}  // namespace
+
+double SelfGravity::exchange(std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
                              const std::vector<int>& rcount) const {
+  if (nranks_ == 1) {  // what is sent is what is received: no copy
+    recv.swap(send);
+    return 0;
+  }
   std::vector<int> sdispl(nranks_, 0), rdispl(nranks_, 0);
   for (int q = 1; q < nranks_; ++q) {
     sdispl[q] = sdispl[q - 1] + scount[q - 1];
     rdispl[q] = rdispl[q - 1] + rcount[q - 1];
   }
-  recv.resize(static_cast<std::size_t>(rdispl.back()) + rcount.back());
+  fit(recv, static_cast<std::size_t>(rdispl.back()) + rcount.back());
   MPI_Alltoallv(send.data(), scount.data(), sdispl.data(), MPI_DOUBLE, recv.data(), rcount.data(), rdispl.data(),
                 MPI_DOUBLE, comm_);
   double sent = 0;
@@ -355,7 +375,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   auto grid_row = [&](int q, long r) { return static_cast<long>(wrap(box(copy_, q)[0] + r, ny_)); };
 
   // 1. Deposit on the box, then to the rows' owners (as doubles: integers below 2^53 are exact).
-  box_mass_.assign(static_cast<std::size_t>(L) * rows * cols, 0);
+  fit(box_mass_, static_cast<std::size_t>(L) * rows * cols, std::int64_t{0});
   for (std::size_t i = 0; i < p.nlocal; ++i) {
     if (copy_of(p, i) != copy_) continue;
     const Stencil s = stencil(p.x[i], copy_);
@@ -379,7 +399,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   }
   moved_bytes_ += exchange(send_, scount, recv_, rcount);
   const int Ld = zhi - zlo + 1;
-  row_mass_.assign(static_cast<std::size_t>(Ld) * my_rows * nx_, 0);
+  fit(row_mass_, static_cast<std::size_t>(Ld) * my_rows * nx_, std::int64_t{0});
   {
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)
@@ -407,7 +427,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   const long c0 = col_lo(rank_), c1 = col_lo(rank_ + 1), my_cols = c1 - c0;
   const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
   row_real_.resize(nx_);
-  row_spec_.resize(static_cast<std::size_t>(std::max(S, L)) * my_rows * mx);
+  fit(row_spec_, static_cast<std::size_t>(std::max(S, L)) * my_rows * mx);
   for (int s = 0; s < S; ++s)
     for (long j = 0; j < my_rows; ++j) {
       const std::int64_t* m = &row_mass_[((sources[s] - zlo) * my_rows + j) * nx_];
@@ -429,7 +449,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
     rcount[q] = static_cast<int>(2 * S * (row_lo(q + 1) - row_lo(q)) * my_cols);
   }
   moved_bytes_ += exchange(send_, scount, recv_, rcount);
-  col_spec_.resize(static_cast<std::size_t>(S) * my_cols * ny_);
+  fit(col_spec_, static_cast<std::size_t>(S) * my_cols * ny_);
   {
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)
@@ -457,14 +477,19 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   const std::complex<double> I(0, 1);
   const int F = planar_ ? 3 : 4;
   const int fields[4] = {0, 1, planar_ ? 3 : 2, 3};  // a_z skipped in planar scenes
-  col_out_.assign(static_cast<std::size_t>(F) * L * my_cols * ny_, 0.0);
+  fit(col_out_, static_cast<std::size_t>(F) * L * my_cols * ny_);  // every entry is written below
   auto out = [&](int f, int a, long m) { return &col_out_[((static_cast<std::size_t>(f) * L + (a - first)) * my_cols + m) * ny_]; };
+  std::vector<std::complex<double>> src(S);  // one mode's sources, gathered once (they lie a column apart)
   for (long ml = 0; ml < my_cols; ++ml) {
     const long m = c0 + ml;
     const double KX = 2 * kPi * m / lx_;
     for (int j = 0; j < ny_; ++j) {
       const int n = j <= ny_ / 2 ? j : j - ny_;
-      if (m == nx_ / 2 || j == ny_ / 2) continue;  // Nyquist: no odd derivative there (zeros)
+      if (m == nx_ / 2 || j == ny_ / 2) {  // Nyquist: no odd derivative there (zeros)
+        for (int f = 0; f < F; ++f)
+          for (int a = first; a <= last; ++a) out(f, a, ml)[j] = 0.0;
+        continue;
+      }
       const double KY = 2 * kPi * n / ly_ - KX * shear_ / ly_;
       // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
       const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
@@ -487,13 +512,13 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
           Z[d] = (lo[2 * d + 1] + f * (hi[2 * d + 1] - lo[2 * d + 1])) * scale;
         }
       }
+      for (int s = 0; s < S; ++s) src[s] = col_spec_[(s * my_cols + ml) * ny_ + j];
       for (int a = first; a <= last; ++a) {
         std::complex<double> phi = 0, az = 0;
         for (int s = 0; s < S; ++s) {
-          const std::complex<double> src = col_spec_[(s * my_cols + ml) * ny_ + j];
           const int d = std::abs(a - sources[s]);
-          phi += P[d] * src;
-          az += (a >= sources[s] ? 1.0 : -1.0) * Z[d] * src;
+          phi += P[d] * src[s];
+          az += (a >= sources[s] ? 1.0 : -1.0) * Z[d] * src[s];
         }
         out(0, a, ml)[j] = -I * KX * phi;
         out(1, a, ml)[j] = -I * KY * phi;
@@ -505,7 +530,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   // Back, one field at a time (a fourth of the staging): along y, to rows, along x, and each
   // rank's box from the rows' owners.
   std::vector<double>& row_field = row_field_;
-  row_field.resize(static_cast<std::size_t>(L) * my_rows * nx_);
+  fit(row_field, static_cast<std::size_t>(L) * my_rows * nx_);
   for (int f = 0; f < F; ++f) {
     for (int a = first; a <= last; ++a)
       for (long m = 0; m < my_cols; ++m) {
@@ -558,7 +583,7 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
     }
     moved_bytes_ += exchange(send_, scount, recv_, rcount);
     std::vector<double>& field = box_field_[copy_][fields[f]];
-    field.resize(static_cast<std::size_t>(L) * rows * cols);
+    fit(field, static_cast<std::size_t>(L) * rows * cols);
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)
       for (int a = 0; a < L; ++a)

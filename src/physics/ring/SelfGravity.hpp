@@ -193,8 +193,9 @@ class SelfGravity : public Module {
   // Rows and mode columns owned by `rank`: [row_lo(rank), row_lo(rank + 1)).
   long row_lo(int rank) const { return static_cast<long>(ny_) * rank / nranks_; }
   long col_lo(int rank) const { return static_cast<long>(nx_ / 2 + 1) * rank / nranks_; }
-  // All-to-all of `send` (counts per rank, in doubles) into `recv`; returns the doubles this rank sent to others.
-  double exchange(const std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
+  // All-to-all of `send` (counts per rank, in doubles) into `recv` (on one rank they trade places);
+  // returns the bytes this rank sent to others.
+  double exchange(std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
                   const std::vector<int>& rcount) const;
 
   int nx_, ny_, nz_;
