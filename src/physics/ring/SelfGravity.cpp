@@ -473,33 +473,31 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   if (S) reach = std::max(last - sources.front(), sources.back() - first);
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
   const int R = reach + 1;
-  std::vector<double> P(R), Z(R);
   const std::complex<double> I(0, 1);
   const int F = planar_ ? 3 : 4;
   const int fields[4] = {0, 1, planar_ ? 3 : 2, 3};  // a_z skipped in planar scenes
   fit(col_out_, static_cast<std::size_t>(F) * L * my_cols * ny_);  // every entry is written below
   auto out = [&](int f, int a, long m) { return &col_out_[((static_cast<std::size_t>(f) * L + (a - first)) * my_cols + m) * ny_]; };
-  std::vector<std::complex<double>> src(S);  // one mode's sources, gathered once (they lie a column apart)
+  // Per mode column: the kernels of every mode in it by layer distance, then each computed layer
+  // sums its sources along the column (the n are contiguous there: the sums vectorise).
+  std::vector<double> P(static_cast<std::size_t>(R) * ny_), Z(P.size()), KY(ny_);
+  std::vector<std::complex<double>> phi(ny_), az(ny_);
   for (long ml = 0; ml < my_cols; ++ml) {
     const long m = c0 + ml;
     const double KX = 2 * kPi * m / lx_;
     for (int j = 0; j < ny_; ++j) {
       const int n = j <= ny_ / 2 ? j : j - ny_;
-      if (m == nx_ / 2 || j == ny_ / 2) {  // Nyquist: no odd derivative there (zeros)
-        for (int f = 0; f < F; ++f)
-          for (int a = first; a <= last; ++a) out(f, a, ml)[j] = 0.0;
-        continue;
-      }
-      const double KY = 2 * kPi * n / ly_ - KX * shear_ / ly_;
+      KY[j] = 2 * kPi * n / ly_ - KX * shear_ / ly_;
       // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
       const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
       const double scale = norm / (w * w);
-      const double k = std::hypot(KX, KY);
+      const double k = std::hypot(KX, KY[j]);
       if (k == 0) {
         for (int d = 0; d < R; ++d) {
-          kernels(0.0, d * h_[2], P[d], Z[d]);
-          P[d] *= scale;
-          Z[d] *= scale;
+          double p, z;
+          kernels(0.0, d * h_[2], p, z);
+          P[d * ny_ + j] = p * scale;
+          Z[d * ny_ + j] = z * scale;
         }
       } else {  // from the tables: k phi and a_z are smooth in k at every layer distance
         const double t = k * inv_dk_;
@@ -508,22 +506,36 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
         const double* lo = &kernel_table_[i * nz_ * 2];
         const double* hi = lo + nz_ * 2;
         for (int d = 0; d < R; ++d) {
-          P[d] = (lo[2 * d] + f * (hi[2 * d] - lo[2 * d])) / k * scale;
-          Z[d] = (lo[2 * d + 1] + f * (hi[2 * d + 1] - lo[2 * d + 1])) * scale;
+          P[d * ny_ + j] = (lo[2 * d] + f * (hi[2 * d] - lo[2 * d])) / k * scale;
+          Z[d * ny_ + j] = (lo[2 * d + 1] + f * (hi[2 * d + 1] - lo[2 * d + 1])) * scale;
         }
       }
-      for (int s = 0; s < S; ++s) src[s] = col_spec_[(s * my_cols + ml) * ny_ + j];
-      for (int a = first; a <= last; ++a) {
-        std::complex<double> phi = 0, az = 0;
-        for (int s = 0; s < S; ++s) {
-          const int d = std::abs(a - sources[s]);
-          phi += P[d] * src[s];
-          az += (a >= sources[s] ? 1.0 : -1.0) * Z[d] * src[s];
+    }
+    for (int a = first; a <= last; ++a) {
+      std::fill(phi.begin(), phi.end(), 0.0);
+      std::fill(az.begin(), az.end(), 0.0);
+      for (int s = 0; s < S; ++s) {
+        const std::complex<double>* src = &col_spec_[(s * my_cols + ml) * ny_];
+        const int d = std::abs(a - sources[s]);
+        const double sign = a >= sources[s] ? 1.0 : -1.0;
+        const double* p = &P[d * ny_];
+        const double* z = &Z[d * ny_];
+        for (int j = 0; j < ny_; ++j) {
+          phi[j] += p[j] * src[j];
+          az[j] += sign * z[j] * src[j];
         }
-        out(0, a, ml)[j] = -I * KX * phi;
-        out(1, a, ml)[j] = -I * KY * phi;
-        if (!planar_) out(2, a, ml)[j] = az;
-        out(F - 1, a, ml)[j] = phi;
+      }
+      std::complex<double>* o[4] = {out(0, a, ml), out(1, a, ml), out(2, a, ml), out(F - 1, a, ml)};
+      for (int j = 0; j < ny_; ++j) {
+        o[0][j] = -I * KX * phi[j];
+        o[1][j] = -I * KY[j] * phi[j];
+        if (!planar_) o[2][j] = az[j];
+        o[3][j] = phi[j];
+      }
+      for (int f = 0; f < F; ++f) {  // Nyquist: no odd derivative there (zeros)
+        std::complex<double>* c = out(f, a, ml);
+        if (m == nx_ / 2) std::fill(c, c + ny_, 0.0);
+        else c[ny_ / 2] = 0.0;
       }
     }
   }
