@@ -296,6 +296,10 @@ void fit(std::vector<T>& v, std::size_t n) {
   v.resize(n);
 }
 template <class T>
+void append(std::vector<T>& v, const T* from, long n) {
+  v.insert(v.end(), from, from + n);
+}
+template <class T>
 void fit(std::vector<T>& v, std::size_t n, T value) {
   if (n > v.capacity()) v.reserve(n + n / 4);
   v.assign(n, value);
@@ -440,11 +444,8 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
     const std::size_t before = send_.size();
     for (int s = 0; s < S; ++s)
       for (long j = 0; j < my_rows; ++j)
-        for (long m = col_lo(q); m < col_lo(q + 1); ++m) {
-          const std::complex<double> v = row_spec_[(s * my_rows + j) * mx + m];
-          send_.push_back(v.real());
-          send_.push_back(v.imag());
-        }
+        append(send_, reinterpret_cast<const double*>(&row_spec_[(s * my_rows + j) * mx + col_lo(q)]),
+               2 * (col_lo(q + 1) - col_lo(q)));  // (re, im) pairs: std::complex's layout
     scount[q] = static_cast<int>(send_.size() - before);
     rcount[q] = static_cast<int>(2 * S * (row_lo(q + 1) - row_lo(q)) * my_cols);
   }
@@ -585,8 +586,9 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
         for (long r = 0; r < box(copy_, q)[1]; ++r)
           if (row_owner(grid_row(q, r)) == rank_) {
             const double* row = &row_field[(a * my_rows + (grid_row(q, r) - r0)) * nx_];
-            for (long c = 0, i = box(copy_, q)[3 + r]; c < box(copy_, q)[2]; ++c, i = i + 1 == nx_ ? 0 : i + 1)
-              send_.push_back(row[i]);
+            const long from = box(copy_, q)[3 + r], n = box(copy_, q)[2], first_part = std::min(n, nx_ - from);
+            append(send_, row + from, first_part);  // the box's run of columns, wrapping at most once
+            append(send_, row, n - first_part);
           }
       scount[q] = static_cast<int>(send_.size() - before);
       long n = 0;
