@@ -62,6 +62,9 @@ ap.add_argument("--orbits", type=float, default=1.5)
 ap.add_argument("--from", dest="start", type=float, default=1.0, help="orbits: the analysis window's start")
 ap.add_argument("--to", dest="end", type=float, default=None, help="orbits: the analysis window's end (default: the run's)")
 ap.add_argument("--ly-rh", type=float, default=8.0, help="radial box width in r_H")
+ap.add_argument("--earlier", nargs="*", default=[],
+                help="runs.csv tables of earlier runs (e.g. docs/propeller/gravity/table-1.0-1.5.csv): their rows of other seeds "
+                     "join the seed statistics")
 add_study_options(ap, os.path.join(ROOT, "runs", "propeller-gravity"))
 a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
@@ -263,6 +266,29 @@ for r in rows_out:
         print(f"    pixels {p:g} r_H: gap deficit {r[f'd{p:g}']:.2f}, unperturbed scatter CV {r[f'cv{p:g}']:.2f} "
               f"(wakes' part {r[f'cv_wake{p:g}']:.2f}) -> visibility D/CV_wake {r[f'vis{p:g}']:.2f} (null {r[f'vis_null{p:g}']:+.2f}), "
               f"D/CV {r[f'd{p:g}'] / r[f'cv{p:g}']:.2f}; gap pixels darker than the ring's median {r[f'dark{p:g}']:.2f} (null {r[f'dark_null{p:g}']:.2f})")
+
+# Across seeds, per ratio (this window's runs and --earlier rows of other seeds): the mean and
+# the seeds' standard deviation of each criterion, the error bar that frame scatter is not.
+import csv
+pooled = {(r["ratio"], r["seed"]): r for r in rows_out}
+for path in a.earlier:
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            key = (float(row["ratio"]), int(row["seed"]))
+            if key not in pooled and abs(float(row["t_from"]) - a.start) < 0.05 and (a.end is None or abs(float(row["t_to"]) - a.end) < 0.1):
+                pooled[key] = {k: float(row[k]) for k in ("rH_over_lambda_cr", "depth", "vis0.25", "wavelength", "lambda_cr", "Q",
+                                                          "height_max_rH", "centroid_rH")}
+for ratio in sorted({k[0] for k in pooled}, reverse=True):
+    rs = [pooled[k] for k in sorted(pooled) if k[0] == ratio]
+    if len(rs) < 2:
+        continue
+    def stat(f):
+        v = np.array([f(r) for r in rs])
+        return f"{v.mean():.3f} +- {v.std(ddof=1):.3f}"
+    print(f"r_H/lambda_cr {ratio:g}, {len(rs)} seeds ({', '.join(str(k[1]) for k in sorted(pooled) if k[0] == ratio)}), mean +- seed sd: "
+          f"D {stat(lambda r: r['depth'])}; visibility at r_H/4 {stat(lambda r: r['vis0.25'])}; "
+          f"wakes / lambda_cr {stat(lambda r: r['wavelength'] / r['lambda_cr'])}; Q {stat(lambda r: r['Q'])}; "
+          f"height {stat(lambda r: r['height_max_rH'])} r_H; deficit centroid {stat(lambda r: r['centroid_rH'])} r_H")
 
 if rows_out:
     import matplotlib
