@@ -35,7 +35,7 @@ Criteria over the snapshots from --from orbits on (every T0 / 20):
     boxes (maximal propeller heights ~0.6-0.8 r_H) and LE2's (the unperturbed ring's).
 Writes runs.csv, table.csv, maps.png into DIR (default runs/propeller-gravity) and cost.json.
 """
-import argparse, json, math, os, sys
+import argparse, csv, json, math, os, sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -269,7 +269,6 @@ for r in rows_out:
 
 # Across seeds, per ratio (this window's runs and --earlier rows of other seeds): the mean and
 # the seeds' standard deviation of each criterion, the error bar that frame scatter is not.
-import csv
 pooled = {(r["ratio"], r["seed"]): r for r in rows_out}
 for path in a.earlier:
     with open(path) as f:

@@ -296,13 +296,13 @@ void fit(std::vector<T>& v, std::size_t n) {
   v.resize(n);
 }
 template <class T>
-void append(std::vector<T>& v, const T* from, long n) {
-  v.insert(v.end(), from, from + n);
-}
-template <class T>
 void fit(std::vector<T>& v, std::size_t n, T value) {
   if (n > v.capacity()) v.reserve(n + n / 4);
   v.assign(n, value);
+}
+template <class T>
+void append(std::vector<T>& v, const T* from, long n) {
+  v.insert(v.end(), from, from + n);
 }
 }  // namespace
 
