@@ -646,6 +646,52 @@ TEST(ClogMonitor, ClearingThePileAndRecoveringCountsOnlyAvalanchesThatStartAfter
               lc->avalanches()[2], lc->recovery_clogs());
 }
 
+TEST(ClogMonitor, TheNecksRestEndsAStandstillEarlyOnlyWithAnArchInTheNeck) {
+  // clog.rest_region = "neck" confirms a clog before the window is out only when the beads the
+  // neck holds (the arch) have come to rest. In continuous mode, after a clearing, a standstill
+  // can also stand in the approach of an emptied neck; there the neck has no beads to be at rest,
+  // and such a standstill must wait out the window. (When it did not, the first beads to reach an
+  // emptied approach and pause for 1 % of the window were called a clog.) Every clog confirmed
+  // earlier than its standstill's start plus the window had beads in the neck at the step before.
+  // A loose rest speed (1 % of the mean velocity) lets arches reach it within a short window:
+  // the rule is under test here, not the threshold.
+  const std::vector<std::string> scene{"clog.mode=\"continuous\"", "clog.avalanches=3", "clog.clear_length=4.0e-4",
+                                       "clog.rest_region=\"neck\"", "clog.rest_speed=1.47e-5",
+                                       "clog.window=0.1", "time.end=8.0"};
+  auto sim = make_sim(channel_case(), scene);
+  sim->setup();
+  const auto* clog = sim->find<ClogMonitor>();
+  const ChannelConfig& ch = sim->cfg.get<ChannelConfig>();
+  const double window = ch.clog_window, neck_lo = ch.neck_x0 - 2 * sim->cfg.max_radius();
+  const double check = std::max(1L, std::lround(window / 1000 / sim->dt)) * sim->dt;
+  auto neck_beads = [&] {
+    long n = 0;
+    for (std::size_t i = 0; i < sim->particles.nlocal; ++i) {
+      const double x = sim->particles.x[i][0];
+      n += x > neck_lo && x <= ch.pass_x;
+    }
+    return n;
+  };
+  std::size_t counted = 0;
+  int early = 0;
+  while (!sim->record.finished && sim->time < 8.0) {
+    const long neck_before = neck_beads();
+    sim->step();
+    if (clog->avalanches().size() == counted) continue;
+    counted = clog->avalanches().size();
+    const double standstill = sim->time - clog->avalanche_clogs().back();
+    if (standstill < window - check) {
+      ++early;
+      EXPECT_GT(neck_before, 0) << "clog " << counted << " confirmed at rest at t = " << sim->time << " after a "
+                                << standstill << " s standstill with an empty neck";
+    }
+  }
+  ASSERT_EQ(clog->avalanches().size(), 3u) << "ended at t = " << sim->time;
+  EXPECT_GT(early, 0) << "no clog ended early at rest: the scene does not exercise the rule";
+  std::printf("avalanches %ld %ld %ld, %d confirmed early at the neck's rest\n", clog->avalanches()[0], clog->avalanches()[1],
+              clog->avalanches()[2], early);
+}
+
 TEST(ClogMonitor, ClearingStalledBeadsLeavesNoBeadStoppedUpstream) {
   // clog.clear_stalled: at each clearing every bead upstream of the escape line that moves slower
   // than a tenth of the fluid at its centre goes, with the arch; right after it, every bead left
