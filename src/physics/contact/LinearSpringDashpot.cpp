@@ -125,4 +125,12 @@ PairLaw LinearSpringDashpot::at_impact(int a, int b, double u) const {
   return L;
 }
 
+const LinearSpringDashpot::TorqueOscillator& LinearSpringDashpot::remember_oscillator(double w0sq, double eta) const {
+  TorqueOscillator& o = oscillators_[next_oscillator_];
+  next_oscillator_ = (next_oscillator_ + 1) % oscillators_.size();
+  const double decay = eta * std::sqrt(w0sq), w2 = w0sq - decay * decay;
+  o = {w0sq, eta, discrete_oscillator(w2, decay, dt_), w2, decay};
+  return o;
+}
+
 }  // namespace cassini
