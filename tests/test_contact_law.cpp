@@ -1141,6 +1141,32 @@ TEST(ContactLaw, TwistingSpringIsSampledExactly) {
   }
 }
 
+TEST(ContactLaw, TorqueSpringsOfManyUnlikePairsEachGetTheirOwnOscillator) {
+  // The exact torque springs' discrete oscillators are remembered per w0^2 = k / I (eight at a
+  // time). Twelve pairs of unlike beads (a reduced radius from 0.3 to 0.85 of the bead's: w0^2
+  // grows with its square) asked for in two different orders (so that entries are evicted and
+  // recomputed) must each get their own oscillator, here from its closed form: per unit inertia
+  // k = (1 + rho^2 - 2 rho cos(w dt)) / dt^2 and c = (1 - rho^2) / dt, rho = exp(-eta_r w0 dt),
+  // w = w0 sqrt(1 - eta_r^2).
+  const double dt = 2e-5, mu = 0.1, eta_r = 0.3;
+  auto sim = sphere_on_floor(dt, {"species.0.mu_r=0.1", "species.0.eta_r=0.3"});
+  const LinearSpringDashpot law(sim->cfg, dt);
+  const PairLaw& L = law.law(0, 0);
+  ASSERT_TRUE(law.exact());
+  auto check = [&](int size) {
+    const double a = 1e-3, m = 2500.0 * 4.0 / 3.0 * std::numbers::pi * a * a * a, reff = a * (0.3 + 0.05 * size);
+    const double kn = m * L.k_per_mass, I = 1.4 * m * a * a;
+    const LinearSpringDashpot::TorqueSpring t = law.torque_spring(L, kn, mu, reff, I, true);
+    const double w0sq = 2.25 * kn * mu * mu * reff * reff / I, rho = std::exp(-eta_r * std::sqrt(w0sq) * dt);
+    const double w = std::sqrt(w0sq * (1 - eta_r * eta_r));
+    const double k = I * (1 + rho * rho - 2 * rho * std::cos(w * dt)) / (dt * dt), c = I * (1 - rho * rho) / dt;
+    EXPECT_NEAR(t.k, k, 1e-9 * k) << "pair " << size;
+    EXPECT_NEAR(t.c, c, 1e-9 * c) << "pair " << size;
+  };
+  for (int size = 0; size < 12; ++size) check(size);
+  for (int size : {3, 11, 0, 7, 9, 1, 5, 10, 2, 8, 4, 6, 11, 11, 0}) check(size);
+}
+
 TEST(ContactLaw, RollingSpringRocksASphereAtItsNormalModeFrequency) {
   // A sphere resting on the floor (undamped: e = 1, eta_r = 0, gammat_ratio = 0), rocking in the
   // elastic regime of its rolling spring k_r = 2.25 k_n mu_r^2 a^2 and held by its tangential
