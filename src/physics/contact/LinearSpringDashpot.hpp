@@ -648,7 +648,7 @@ class LinearSpringDashpot {
   // eta_r only. A scene of one bead size has four (pair and wall, rolling and twisting), asked for
   // several times per contact and step (the force and DampingLimit's load): remembered, each
   // costs a comparison instead of five transcendental calls (a quarter of a rolling clog run's
-  // time), with the same numbers bit for bit. Polydisperse pairs miss and compute, as before.
+  // time; its snapshots came out bitwise as before). Polydisperse pairs miss and compute.
   struct TorqueOscillator {
     double w0sq = -1, eta = -1;  // the key
     DiscreteOscillator d{};
