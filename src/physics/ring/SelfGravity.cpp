@@ -616,7 +616,9 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
 // halo's rule (box sides >= 2 x its range) rules that out.
 void SelfGravity::list_partners(const ParticleStore& p) {
   const std::size_t n = p.size();
-  std::vector<std::array<long, 3>> key(n);
+  ListScratch& s = scratch_;
+  fit(s.key, n);
+  auto& key = s.key;
   std::array<long, 3> lo{0, 0, 0}, hi{0, 0, 0};
   for (std::size_t i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) {
@@ -631,10 +633,12 @@ void SelfGravity::list_partners(const ParticleStore& p) {
     total *= cells[d];
   }
   auto cell_of = [&](long x, long y, long z) { return (static_cast<std::size_t>(z) * cells[1] + y) * cells[0] + x; };
-  std::vector<std::uint32_t> start(total + 1, 0), items(n);
+  fit(s.start, total + 1, std::uint32_t{0});
+  fit(s.items, n);
+  auto &start = s.start, &items = s.items, &fill = s.fill;
   for (std::size_t i = 0; i < n; ++i) ++start[cell_of(key[i][0] - lo[0], key[i][1] - lo[1], key[i][2] - lo[2]) + 1];
   for (std::size_t c = 0; c < total; ++c) start[c + 1] += start[c];
-  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  fill.assign(start.begin(), start.end() - 1);
   for (std::size_t i = 0; i < n; ++i)
     items[fill[cell_of(key[i][0] - lo[0], key[i][1] - lo[1], key[i][2] - lo[2])]++] = static_cast<std::uint32_t>(i);
 
@@ -642,15 +646,20 @@ void SelfGravity::list_partners(const ParticleStore& p) {
   // their candidates (the cells around it): sorted by id once per cell, as one integer key per
   // entry, every particle's partners come out of them already in id order. (A sort per particle,
   // through the indices to the ids, was half the cost of the wakes scene's rebuilds.)
-  std::vector<std::uint32_t> by_id(n), id_rank(n);
+  fit(s.by_id, n);
+  fit(s.id_rank, n);
+  auto &by_id = s.by_id, &id_rank = s.id_rank;
   for (std::size_t i = 0; i < n; ++i) by_id[i] = static_cast<std::uint32_t>(i);
   std::sort(by_id.begin(), by_id.end(), [&p](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
   for (std::size_t k = 0; k < n; ++k) id_rank[by_id[k]] = static_cast<std::uint32_t>(k);
 
   const double r2max = list_range_ * list_range_;
-  std::vector<std::uint32_t> count(p.nlocal, 0), where(p.nlocal, 0), found;  // each owned particle's list in `found`
-  std::vector<std::uint64_t> candidates;
-  std::vector<double> cx, cy, cz, r2;
+  fit(partner_count_, p.nlocal, std::uint32_t{0});
+  fit(partner_at_, p.nlocal, std::uint32_t{0});
+  partner_.clear();
+  auto &count = partner_count_, &where = partner_at_, &found = partner_;
+  auto &candidates = s.candidates;
+  auto &cx = s.cx, &cy = s.cy, &cz = s.cz, &r2 = s.r2;
   for (std::size_t cell = 0; cell < total; ++cell) {
     bool owned = false;
     for (std::uint32_t q = start[cell]; q < start[cell + 1] && !owned; ++q) owned = items[q] < p.nlocal;
@@ -693,11 +702,6 @@ void SelfGravity::list_partners(const ParticleStore& p) {
       count[i] = static_cast<std::uint32_t>(found.size()) - where[i];
     }
   }
-  partner_start_.assign(p.nlocal + 1, 0);
-  for (std::size_t i = 0; i < p.nlocal; ++i) partner_start_[i + 1] = partner_start_[i] + count[i];
-  partner_.resize(partner_start_[p.nlocal]);
-  for (std::size_t i = 0; i < p.nlocal; ++i)
-    std::copy_n(found.begin() + where[i], count[i], partner_.begin() + partner_start_[i]);
 }
 
 void SelfGravity::setup(Simulation& sim) { multirate_ = sim.find<MultiRateHill>(); }
@@ -713,7 +717,7 @@ Vec3 SelfGravity::short_range(const ParticleStore& p, const Vec3* X, std::size_t
   const double r2max = reach_ * reach_, G = kGravitationalConstant, to_s = kTable / r2max;
   const double* w_table = w_table_.data();
   double ax = 0, ay = 0, az = 0, u = 0;
-  for (std::uint32_t q = partner_start_[i]; q < partner_start_[i + 1]; ++q) {
+  for (std::uint32_t q = partner_at_[i], end = q + partner_count_[i]; q < end; ++q) {
     const std::uint32_t j = partner_[q];
     const double dx = X[j][0] - xi, dy = X[j][1] - yi, dz = X[j][2] - zi;
     const double r2 = dx * dx + dy * dy + dz * dz;
@@ -829,7 +833,7 @@ void SelfGravity::force_multirate(Simulation& sim) {
   for (std::size_t t = 0; t < T.count; ++t) {
     const std::size_t i = T[t];
     need(i);
-    for (std::uint32_t q = partner_start_[i]; q < partner_start_[i + 1]; ++q) need(partner_[q]);
+    for (std::uint32_t q = partner_at_[i], end = q + partner_count_[i]; q < end; ++q) need(partner_[q]);
     short_now_[i] = short_range(p, present_.data(), i);
     p.f[i] += p.mass[i] * short_now_[i];
   }

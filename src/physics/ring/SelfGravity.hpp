@@ -204,8 +204,17 @@ class SelfGravity : public Module {
   double list_range_;  // r_s + skin: the partners listed at a rebuild
   double cell_size_;   // of the cells binning them, >= list_range_
   // Each owned particle's partners (owned or ghost, within list_range_ at the last rebuild),
-  // in id order: partner_[partner_start_[i] .. partner_start_[i + 1]).
-  std::vector<std::uint32_t> partner_start_, partner_;
+  // in id order: partner_[partner_at_[i] .. partner_at_[i] + partner_count_[i]), listed cell
+  // by cell. These and the listing's scratch keep their storage from one rebuild to the next:
+  // in a dense ring the list is tens of MB, and a fresh one was a mapping whose every page
+  // faulted, twice (grown, then copied into particle order), at every rebuild.
+  std::vector<std::uint32_t> partner_at_, partner_count_, partner_;
+  struct ListScratch {
+    std::vector<std::array<long, 3>> key;
+    std::vector<std::uint32_t> start, items, fill, by_id, id_rank;
+    std::vector<std::uint64_t> candidates;
+    std::vector<double> cx, cy, cz, r2;
+  } scratch_;
   void list_partners(const ParticleStore& p);
   // The short-range law against s = r^2 / r_s^2 on a uniform table (linear interpolation: error
   // < 1e-6 of w for r > 0.1 r_s): w = erfc(x) + 2 x exp(-x^2) / sqrt(pi) and erfc(x).
