@@ -214,6 +214,7 @@ class SelfGravity : public Module {
     std::vector<std::uint32_t> start, items, fill, by_id, id_rank;
     std::vector<std::uint64_t> candidates;
     std::vector<double> cx, cy, cz, r2;
+    std::vector<int> copy;  // the candidates' copies (modified Lees-Edwards boundaries)
   } scratch_;
   void list_partners(const ParticleStore& p);
   // The short-range law against s = r^2 / r_s^2 on a uniform table (linear interpolation: error
