@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 
 #include <fftw3.h>
@@ -153,21 +154,26 @@ SelfGravity::SelfGravity(const Config& cfg, const Decomposition& domain)
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &nranks_);
   copies_ = domain.fed_x ? 2 : 1;
-  // Plans on scratch arrays; FFTW_UNALIGNED lets them run on any array of these sizes.
+  // Every 1D transform runs on these aligned scratch arrays, through plans made on them: one
+  // code path (FFTW's SIMD codelets, which need aligned arrays: 2-3x faster than the unaligned
+  // scalar ones) for every row and column, the same on any rank count and run.
   const int mx = nx_ / 2 + 1;
-  std::vector<double> r(nx_);
-  std::vector<std::complex<double>> c(std::max(mx, ny_)), d(std::max(mx, ny_));
-  auto* cc = reinterpret_cast<fftw_complex*>(c.data());
-  auto* dd = reinterpret_cast<fftw_complex*>(d.data());
-  const unsigned flags = FFTW_ESTIMATE | FFTW_UNALIGNED;
-  row_forward_ = fftw_plan_dft_r2c_1d(nx_, r.data(), cc, flags);
-  row_backward_ = fftw_plan_dft_c2r_1d(nx_, cc, r.data(), flags);
-  col_forward_ = fftw_plan_dft_1d(ny_, cc, dd, FFTW_FORWARD, flags);
-  col_backward_ = fftw_plan_dft_1d(ny_, cc, dd, FFTW_BACKWARD, flags);
+  fft_.real = fftw_alloc_real(nx_);
+  fft_.spec = fftw_alloc_complex(mx);
+  fft_.col_in = fftw_alloc_complex(ny_);
+  fft_.col_out = fftw_alloc_complex(ny_);
+  const unsigned flags = FFTW_ESTIMATE;
+  row_forward_ = fftw_plan_dft_r2c_1d(nx_, fft_.real, fft_.spec, flags);
+  row_backward_ = fftw_plan_dft_c2r_1d(nx_, fft_.spec, fft_.real, flags);  // overwrites spec: scratch
+  col_forward_ = fftw_plan_dft_1d(ny_, fft_.col_in, fft_.col_out, FFTW_FORWARD, flags);
+  col_backward_ = fftw_plan_dft_1d(ny_, fft_.col_in, fft_.col_out, FFTW_BACKWARD, flags);
 }
 
 SelfGravity::~SelfGravity() {
   for (void* plan : {row_forward_, row_backward_, col_forward_, col_backward_}) fftw_destroy_plan(static_cast<fftw_plan>(plan));
+  for (void* a : {static_cast<void*>(fft_.real), static_cast<void*>(fft_.spec), static_cast<void*>(fft_.col_in),
+                  static_cast<void*>(fft_.col_out)})
+    fftw_free(a);
 }
 
 SelfGravity::Cell SelfGravity::locate(const Vec3& x) const {
@@ -360,9 +366,9 @@ void SelfGravity::solve(const Simulation& sim, bool every_layer) {
   double bytes = 0;
   for (const auto& c : box_field_)
     for (const auto& v : c) bytes += v.capacity() * sizeof(double);
-  bytes += (box_mass_.capacity() + row_mass_.capacity()) * sizeof(std::int64_t) + row_real_.capacity() * sizeof(double) +
+  bytes += (box_mass_.capacity() + row_mass_.capacity()) * sizeof(std::int64_t) + 
            (row_spec_.capacity() + col_spec_.capacity() + col_out_.capacity()) * sizeof(std::complex<double>) +
-           (send_.capacity() + recv_.capacity() + row_field_.capacity()) * sizeof(double);
+           (send_.capacity() + recv_.capacity()) * sizeof(double);
   mesh_bytes_ = std::max(mesh_bytes_, bytes);
   ++solves_;
   solve_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -430,14 +436,13 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   const int mx = nx_ / 2 + 1;
   const long c0 = col_lo(rank_), c1 = col_lo(rank_ + 1), my_cols = c1 - c0;
   const double to_sigma = unit / (h_[0] * h_[1]);  // each layer a sheet of surface density
-  row_real_.resize(nx_);
-  fit(row_spec_, static_cast<std::size_t>(std::max(S, L)) * my_rows * mx);
+  fit(row_spec_, static_cast<std::size_t>(S) * my_rows * mx);
   for (int s = 0; s < S; ++s)
     for (long j = 0; j < my_rows; ++j) {
       const std::int64_t* m = &row_mass_[((sources[s] - zlo) * my_rows + j) * nx_];
-      for (int i = 0; i < nx_; ++i) row_real_[i] = static_cast<double>(m[i]) * to_sigma;
-      fftw_execute_dft_r2c(static_cast<fftw_plan>(row_forward_), row_real_.data(),
-                           reinterpret_cast<fftw_complex*>(&row_spec_[(s * my_rows + j) * mx]));
+      for (int i = 0; i < nx_; ++i) fft_.real[i] = static_cast<double>(m[i]) * to_sigma;
+      fftw_execute(static_cast<fftw_plan>(row_forward_));
+      std::memcpy(static_cast<void*>(&row_spec_[(s * my_rows + j) * mx]), fft_.spec, sizeof(fftw_complex) * mx);
     }
   send_.clear();
   for (int q = 0; q < nranks_; ++q) {
@@ -459,14 +464,13 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
           for (long m = 0; m < my_cols; ++m, at += 2)
             col_spec_[(s * my_cols + m) * ny_ + j] = {recv_[at], recv_[at + 1]};
   }
-  std::vector<std::complex<double>> column(ny_);
+  auto transform_column = [&](void* plan, std::complex<double>* c) {
+    std::memcpy(fft_.col_in, c, sizeof(fftw_complex) * ny_);
+    fftw_execute(static_cast<fftw_plan>(plan));
+    std::memcpy(static_cast<void*>(c), fft_.col_out, sizeof(fftw_complex) * ny_);
+  };
   for (int s = 0; s < S; ++s)
-    for (long m = 0; m < my_cols; ++m) {
-      std::complex<double>* c = &col_spec_[(s * my_cols + m) * ny_];
-      fftw_execute_dft(static_cast<fftw_plan>(col_forward_), reinterpret_cast<fftw_complex*>(c),
-                       reinterpret_cast<fftw_complex*>(column.data()));
-      std::copy(column.begin(), column.end(), c);
-    }
+    for (long m = 0; m < my_cols; ++m) transform_column(col_forward_, &col_spec_[(s * my_cols + m) * ny_]);
 
   // Per mode: the layers' Gaussian sheets coupled exactly, the CIC windows divided out.
   const int first = first_, last = last_;
@@ -477,18 +481,27 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
   const std::complex<double> I(0, 1);
   const int F = planar_ ? 3 : 4;
   const int fields[4] = {0, 1, planar_ ? 3 : 2, 3};  // a_z skipped in planar scenes
-  fit(col_out_, static_cast<std::size_t>(F) * L * my_cols * ny_);  // every entry is written below
-  auto out = [&](int f, int a, long m) { return &col_out_[((static_cast<std::size_t>(f) * L + (a - first)) * my_cols + m) * ny_]; };
+  // Per column and computed layer: the potential's modes and (3D) a_z's; a_x and a_y are -i k_x
+  // and -i k_y times the potential's, formed as each field goes back.
+  const int G = planar_ ? 1 : 2;
+  fit(col_out_, static_cast<std::size_t>(G) * my_cols * L * ny_);  // every entry is written below
+  auto out = [&](int g, long ml, int a) { return &col_out_[((static_cast<std::size_t>(ml) * G + g) * L + (a - first)) * ny_]; };
+  auto wave_numbers = [&](long ml, std::vector<double>& ky) {  // k_x, and k_y per n, of column ml
+    const double KX = 2 * kPi * (c0 + ml) / lx_;
+    for (int j = 0; j < ny_; ++j) {
+      const int n = j <= ny_ / 2 ? j : j - ny_;
+      ky[j] = 2 * kPi * n / ly_ - KX * shear_ / ly_;
+    }
+    return KX;
+  };
   // Per mode column: the kernels of every mode in it by layer distance, then each computed layer
   // sums its sources along the column (the n are contiguous there: the sums vectorise).
   std::vector<double> P(static_cast<std::size_t>(R) * ny_), Z(P.size()), KY(ny_);
-  std::vector<std::complex<double>> phi(ny_), az(ny_);
   for (long ml = 0; ml < my_cols; ++ml) {
     const long m = c0 + ml;
-    const double KX = 2 * kPi * m / lx_;
+    const double KX = wave_numbers(ml, KY);
     for (int j = 0; j < ny_; ++j) {
       const int n = j <= ny_ / 2 ? j : j - ny_;
-      KY[j] = 2 * kPi * n / ly_ - KX * shear_ / ly_;
       // Assignment and interpolation each multiply mode (m, n) by the CIC window of the grid.
       const double w = sinc2(kPi * m / nx_) * sinc2(kPi * n / ny_);
       const double scale = norm / (w * w);
@@ -513,90 +526,135 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
       }
     }
     for (int a = first; a <= last; ++a) {
-      std::fill(phi.begin(), phi.end(), 0.0);
-      std::fill(az.begin(), az.end(), 0.0);
+      std::complex<double>* phi = out(0, ml, a);
+      std::complex<double>* az = planar_ ? nullptr : out(1, ml, a);
+      std::fill(phi, phi + ny_, 0.0);
+      if (az) std::fill(az, az + ny_, 0.0);
       for (int s = 0; s < S; ++s) {
         const std::complex<double>* src = &col_spec_[(s * my_cols + ml) * ny_];
         const int d = std::abs(a - sources[s]);
         const double sign = a >= sources[s] ? 1.0 : -1.0;
         const double* p = &P[d * ny_];
         const double* z = &Z[d * ny_];
-        for (int j = 0; j < ny_; ++j) {
-          phi[j] += p[j] * src[j];
-          az[j] += sign * z[j] * src[j];
-        }
-      }
-      std::complex<double>* o[4] = {out(0, a, ml), out(1, a, ml), out(2, a, ml), out(F - 1, a, ml)};
-      for (int j = 0; j < ny_; ++j) {
-        o[0][j] = -I * KX * phi[j];
-        o[1][j] = -I * KY[j] * phi[j];
-        if (!planar_) o[2][j] = az[j];
-        o[3][j] = phi[j];
-      }
-      for (int f = 0; f < F; ++f) {  // Nyquist: no odd derivative there (zeros)
-        std::complex<double>* c = out(f, a, ml);
-        if (m == nx_ / 2) std::fill(c, c + ny_, 0.0);
-        else c[ny_ / 2] = 0.0;
+        if (az)
+          for (int j = 0; j < ny_; ++j) {
+            phi[j] += p[j] * src[j];
+            az[j] += sign * z[j] * src[j];
+          }
+        else
+          for (int j = 0; j < ny_; ++j) phi[j] += p[j] * src[j];
       }
     }
   }
-  // Back, one field at a time (a fourth of the staging): along y, to rows, along x, and each
-  // rank's box from the rows' owners.
-  std::vector<double>& row_field = row_field_;
-  fit(row_field, static_cast<std::size_t>(L) * my_rows * nx_);
-  for (int f = 0; f < F; ++f) {
-    for (int a = first; a <= last; ++a)
-      for (long m = 0; m < my_cols; ++m) {
-        std::complex<double>* c = out(f, a, m);
-        fftw_execute_dft(static_cast<fftw_plan>(col_backward_), reinterpret_cast<fftw_complex*>(c),
-                         reinterpret_cast<fftw_complex*>(column.data()));
-        std::copy(column.begin(), column.end(), c);
+  // Back, one field at a time (a fourth of the staging): along y, straight into the all-to-all's
+  // send buffer (by destination rank, layer, row, column), to rows, along x, and each rank's box
+  // from the rows' owners.
+  // Where each owned row's values go in the last all-to-all: for each rank q, the rows of q's box
+  // this rank owns, in q's order, each a run of columns (layer 0's offset, the layer stride).
+  struct BoxRun {
+    std::size_t at, layer_stride;
+    long from, n;
+  };
+  std::vector<std::vector<BoxRun>> box_runs(my_rows);
+  std::vector<int> box_scount(nranks_), box_rcount(nranks_);
+  std::size_t box_send = 0;
+  for (int q = 0; q < nranks_; ++q) {
+    const long* b = box(copy_, q);
+    long mine_q = 0;
+    for (long r = 0; r < b[1]; ++r) mine_q += row_owner(grid_row(q, r)) == rank_ ? 1 : 0;
+    for (long r = 0, k = 0; r < b[1]; ++r)
+      if (row_owner(grid_row(q, r)) == rank_)
+        box_runs[grid_row(q, r) - r0].push_back({box_send + static_cast<std::size_t>(k++) * b[2],
+                                                 static_cast<std::size_t>(mine_q) * b[2], b[3 + r], b[2]});
+    box_scount[q] = static_cast<int>(L * mine_q * b[2]);
+    box_send += box_scount[q];
+    long n = 0;
+    for (std::size_t r = 0; r < rows; ++r) n += row_owner(grid_row(rank_, r)) == q ? 1 : 0;
+    box_rcount[q] = static_cast<int>(L * n * cols);
+  }
+  std::vector<std::size_t> row_at(ny_), layer_stride(ny_);  // where column entry n goes in send_
+  std::vector<int> col_scount(nranks_), col_rcount(nranks_);
+  {
+    std::size_t at = 0;
+    for (int q = 0; q < nranks_; ++q) {
+      const long rows_q = row_lo(q + 1) - row_lo(q);
+      for (long j = row_lo(q); j < row_lo(q + 1); ++j) {
+        row_at[j] = at + static_cast<std::size_t>(j - row_lo(q)) * my_cols * 2;
+        layer_stride[j] = static_cast<std::size_t>(rows_q) * my_cols * 2;
       }
-    send_.clear();
-    for (int q = 0; q < nranks_; ++q) {
-      const std::size_t before = send_.size();
-      for (int a = first; a <= last; ++a)
-        for (long j = row_lo(q); j < row_lo(q + 1); ++j)
-          for (long m = 0; m < my_cols; ++m) {
-            const std::complex<double> v = out(f, a, m)[j];
-            send_.push_back(v.real());
-            send_.push_back(v.imag());
+      col_scount[q] = static_cast<int>(2 * L * rows_q * my_cols);
+      col_rcount[q] = static_cast<int>(2 * L * my_rows * (col_lo(q + 1) - col_lo(q)));
+      at += col_scount[q];
+    }
+  }
+  auto* column = reinterpret_cast<std::complex<double>*>(fft_.col_in);
+  // Columns go back kBlock at a time: their results are neighbours in send_, so the transpose
+  // writes whole cache lines instead of one value per line.
+  constexpr long kBlock = 8;
+  std::vector<std::complex<double>> tile(kBlock * ny_);
+  std::vector<double> ky(kBlock * ny_), kx(kBlock);
+  for (int f = 0; f < F; ++f) {
+    fit(send_, static_cast<std::size_t>(2) * L * ny_ * my_cols);
+    for (long ml0 = 0; ml0 < my_cols; ml0 += kBlock) {
+      const long nb = std::min(kBlock, my_cols - ml0);
+      for (long b = 0; b < nb; ++b) {
+        kx[b] = wave_numbers(ml0 + b, KY);
+        std::copy(KY.begin(), KY.end(), &ky[b * ny_]);
+      }
+      for (int a = first; a <= last; ++a) {
+        for (long b = 0; b < nb; ++b) {
+          const long ml = ml0 + b, m = c0 + ml;
+          const double KX = kx[b];
+          const double* KYb = &ky[b * ny_];
+          const std::complex<double>* phi = out(0, ml, a);
+          switch (fields[f]) {
+            case 0: for (int j = 0; j < ny_; ++j) column[j] = -I * KX * phi[j]; break;
+            case 1: for (int j = 0; j < ny_; ++j) column[j] = -I * KYb[j] * phi[j]; break;
+            case 2: std::copy(out(1, ml, a), out(1, ml, a) + ny_, column); break;
+            default: std::copy(phi, phi + ny_, column);
           }
-      scount[q] = static_cast<int>(send_.size() - before);
-      rcount[q] = static_cast<int>(2 * L * my_rows * (col_lo(q + 1) - col_lo(q)));
+          // Nyquist: no odd derivative there (zeros)
+          if (m == nx_ / 2) std::fill(column, column + ny_, 0.0);
+          else column[ny_ / 2] = 0.0;
+          fftw_execute(static_cast<fftw_plan>(col_backward_));
+          std::memcpy(static_cast<void*>(&tile[b * ny_]), fft_.col_out, sizeof(fftw_complex) * ny_);
+        }
+        const std::size_t layer = static_cast<std::size_t>(a - first);
+        for (int j = 0; j < ny_; ++j) {
+          double* to = &send_[row_at[j] + layer * layer_stride[j] + 2 * ml0];
+          for (long b = 0; b < nb; ++b) {
+            to[2 * b] = tile[b * ny_ + j].real();
+            to[2 * b + 1] = tile[b * ny_ + j].imag();
+          }
+        }
+      }
     }
-    moved_bytes_ += exchange(send_, scount, recv_, rcount);
-    {
-      std::size_t at = 0;
-      for (int q = 0; q < nranks_; ++q)
-        for (int a = 0; a < L; ++a)
-          for (long j = 0; j < my_rows; ++j)
-            for (long m = col_lo(q); m < col_lo(q + 1); ++m, at += 2)
-              row_spec_[(static_cast<std::size_t>(a) * my_rows + j) * mx + m] = {recv_[at], recv_[at + 1]};
-    }
+    moved_bytes_ += exchange(send_, col_scount, recv_, col_rcount);
+    std::vector<std::size_t> recv_at(nranks_, 0);  // where rank q's columns of (layer, row) begin in recv_
+    for (int q = 1; q < nranks_; ++q) recv_at[q] = recv_at[q - 1] + col_rcount[q - 1];
+    fit(send_, box_send);
     for (int a = 0; a < L; ++a)
-      for (long j = 0; j < my_rows; ++j)
-        fftw_execute_dft_c2r(static_cast<fftw_plan>(row_backward_),
-                             reinterpret_cast<fftw_complex*>(&row_spec_[(static_cast<std::size_t>(a) * my_rows + j) * mx]),
-                             &row_field[(a * my_rows + j) * nx_]);
-    send_.clear();
-    for (int q = 0; q < nranks_; ++q) {
-      const std::size_t before = send_.size();
-      for (int a = 0; a < L; ++a)
-        for (long r = 0; r < box(copy_, q)[1]; ++r)
-          if (row_owner(grid_row(q, r)) == rank_) {
-            const double* row = &row_field[(a * my_rows + (grid_row(q, r) - r0)) * nx_];
-            const long from = box(copy_, q)[3 + r], n = box(copy_, q)[2], first_part = std::min(n, nx_ - from);
-            append(send_, row + from, first_part);  // the box's run of columns, wrapping at most once
-            append(send_, row, n - first_part);
-          }
-      scount[q] = static_cast<int>(send_.size() - before);
-      long n = 0;
-      for (std::size_t r = 0; r < rows; ++r) n += row_owner(grid_row(rank_, r)) == q ? 1 : 0;
-      rcount[q] = static_cast<int>(L * n * cols);
-    }
-    moved_bytes_ += exchange(send_, scount, recv_, rcount);
+      for (long j = 0; j < my_rows; ++j) {
+        double* spec = &fft_.spec[0][0];
+        for (int q = 0; q < nranks_; ++q) {
+          const long n = col_lo(q + 1) - col_lo(q);
+          const double* in = &recv_[recv_at[q] + (static_cast<std::size_t>(a) * my_rows + j) * n * 2];
+          std::copy(in, in + 2 * n, spec + 2 * col_lo(q));
+        }
+        fftw_execute(static_cast<fftw_plan>(row_backward_));
+        for (const BoxRun& run : box_runs[j]) {  // the box's run of columns, wrapping at most once
+          double* to = &send_[run.at + a * run.layer_stride];
+          const long first_part = std::min(run.n, nx_ - run.from);
+          std::copy(fft_.real + run.from, fft_.real + run.from + first_part, to);
+          std::copy(fft_.real, fft_.real + (run.n - first_part), to + first_part);
+        }
+      }
+    moved_bytes_ += exchange(send_, box_scount, recv_, box_rcount);
     std::vector<double>& field = box_field_[copy_][fields[f]];
+    if (nranks_ == 1) {  // all rows this rank's own: received already in the box's layout
+      field.swap(recv_);
+      continue;
+    }
     fit(field, static_cast<std::size_t>(L) * rows * cols);
     std::size_t at = 0;
     for (int q = 0; q < nranks_; ++q)

@@ -235,18 +235,21 @@ class SelfGravity : public Module {
   long box_stride_[2] = {0, 0};          // per copy: the longs per rank in boxes_
   std::vector<int> row_owner_;           // per grid row of the real-space mesh: the rank owning it
   std::vector<double> box_field_[2][4];  // per copy: a_x, a_y, a_z, phi on this rank's box
-  std::vector<double> row_field_;        // one field on the owned rows
   std::vector<std::int64_t> box_mass_;   // the deposit on this rank's box
   std::vector<std::int64_t> row_mass_;   // the summed deposit on the owned rows
-  std::vector<double> row_real_;         // one row's real values (transform input and output)
   std::vector<std::complex<double>> row_spec_;   // [layer][owned row][m], after the x transforms
   std::vector<std::complex<double>> col_spec_;   // [layer][owned column][n], the sources' modes
   std::vector<std::complex<double>> col_out_;    // [field][layer][owned column][n]
   std::vector<double> send_, recv_;              // all-to-all staging
   double mesh_bytes_ = 0;                        // this rank's mesh buffers at their largest
   double moved_bytes_ = 0;                       // sent to other ranks, since the run started
-  // FFTW's 1D plans (FFTW_ESTIMATE | FFTW_UNALIGNED: a function of the sizes only, one code path
-  // for any array, the same on every rank and run): r2c / c2r along x, c2c along y.
+  // FFTW's 1D plans (FFTW_ESTIMATE: a function of the sizes only, the same on every rank and
+  // run), made on and run only on fft_'s aligned scratch: r2c / c2r along x, c2c along y.
+  struct FftScratch {
+    double* real = nullptr;       // one row, real (nx)
+    double (*spec)[2] = nullptr;  // one row, its modes (nx / 2 + 1)
+    double (*col_in)[2] = nullptr, (*col_out)[2] = nullptr;  // one column (ny)
+  } fft_;
   void* row_forward_ = nullptr;
   void* row_backward_ = nullptr;
   void* col_forward_ = nullptr;
