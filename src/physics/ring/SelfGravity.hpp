@@ -237,9 +237,9 @@ class SelfGravity : public Module {
   std::vector<double> box_field_[2][4];  // per copy: a_x, a_y, a_z, phi on this rank's box
   std::vector<std::int64_t> box_mass_;   // the deposit on this rank's box
   std::vector<std::int64_t> row_mass_;   // the summed deposit on the owned rows
-  std::vector<std::complex<double>> row_spec_;   // [layer][owned row][m], after the x transforms
-  std::vector<std::complex<double>> col_spec_;   // [layer][owned column][n], the sources' modes
-  std::vector<std::complex<double>> col_out_;    // [field][layer][owned column][n]
+  std::vector<std::complex<double>> row_spec_;   // [source layer][owned row][m], after the x transforms
+  std::vector<std::complex<double>> col_spec_;   // [source layer][owned column][n], the sources' modes
+  std::vector<std::complex<double>> col_out_;    // [owned column][potential, a_z][layer][n], coupled
   std::vector<double> send_, recv_;              // all-to-all staging
   double mesh_bytes_ = 0;                        // this rank's mesh buffers at their largest
   double moved_bytes_ = 0;                       // sent to other ranks, since the run started
