@@ -275,8 +275,8 @@ for path in a.earlier:
         for row in csv.DictReader(f):
             key = (float(row["ratio"]), int(row["seed"]))
             if key not in pooled and abs(float(row["t_from"]) - a.start) < 0.05 and (a.end is None or abs(float(row["t_to"]) - a.end) < 0.1):
-                pooled[key] = {k: float(row[k]) for k in ("rH_over_lambda_cr", "depth", "vis0.25", "wavelength", "lambda_cr", "Q",
-                                                          "height_max_rH", "centroid_rH")}
+                pooled[key] = {k: float(row[k]) for k in ("rH_over_lambda_cr", "depth", "null", "vis0.25", "vis1", "wavelength",
+                                                          "lambda_cr", "Q", "height_max_rH", "centroid_rH")}
 for ratio in sorted({k[0] for k in pooled}, reverse=True):
     rs = [pooled[k] for k in sorted(pooled) if k[0] == ratio]
     if len(rs) < 2:
@@ -288,6 +288,41 @@ for ratio in sorted({k[0] for k in pooled}, reverse=True):
           f"D {stat(lambda r: r['depth'])}; visibility at r_H/4 {stat(lambda r: r['vis0.25'])}; "
           f"wakes / lambda_cr {stat(lambda r: r['wavelength'] / r['lambda_cr'])}; Q {stat(lambda r: r['Q'])}; "
           f"height {stat(lambda r: r['height_max_rH'])} r_H; deficit centroid {stat(lambda r: r['centroid_rH'])} r_H")
+
+# Each criterion against r_H / lambda_cr: every seed a dot, the mean and the seeds' sd a bar.
+if len(pooled) > 1:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    panels = [("gap depth D (mass)", lambda r: r["depth"], "null"), ("visibility D_pix / CV_wake", lambda r: r["vis0.25"], None),
+              ("wakes / lambda_cr", lambda r: r["wavelength"] / r["lambda_cr"], None), ("height: peak rms z / r_H", lambda r: r["height_max_rH"], None)]
+    fig, ax = plt.subplots(1, len(panels), figsize=(14, 3.4))
+    ratios = sorted({k[0] for k in pooled})
+    for a_, (label, f, null) in zip(ax, panels):
+        for ratio in ratios:
+            rs = [pooled[k] for k in sorted(pooled) if k[0] == ratio]
+            v = np.array([f(r) for r in rs])
+            a_.plot([ratio] * len(v), v, "o", color="0.6", ms=4)
+            a_.errorbar([ratio], [v.mean()], yerr=[v.std(ddof=1) if len(v) > 1 else 0], fmt="s", color="k", capsize=4)
+            if null:
+                a_.plot([ratio] * len(rs), [r[null] for r in rs], "x", color="tab:red", ms=5)
+            if label.startswith("visibility"):
+                a_.plot([ratio] * len(rs), [r["vis1"] for r in rs], "^", color="tab:blue", ms=4)
+        a_.set_xscale("log", base=2)
+        a_.set_xticks(ratios, [f"{r:g}" for r in ratios])
+        a_.set_xlabel("r_H / lambda_cr")
+        a_.set_title(label, fontsize=9)
+    ax[0].text(0.02, 0.02, "x: null (no moonlet)", transform=ax[0].transAxes, fontsize=7, color="tab:red")
+    ax[1].axhline(1, color="k", lw=0.5)
+    ax[1].set_yscale("log")
+    ax[1].text(0.02, 0.92, "pixels r_H/4 (o, bar); r_H (triangles)", transform=ax[1].transAxes, fontsize=7)
+    ax[2].axhline(1, color="k", lw=0.5)
+    ax[3].axhspan(0.6, 0.8, color="tab:green", alpha=0.2, label="Hoffmann et al.")
+    ax[3].set_ylim(0, 0.9)
+    ax[3].legend(fontsize=7)
+    fig.suptitle(f"orbits {a.start:g}-{a.end if a.end is not None else a.orbits:g}, {len(pooled)} runs: seeds (dots), mean +- seeds' sd (bars)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(os.path.join(a.out, "criteria.png"), dpi=90)
 
 if rows_out:
     import matplotlib
