@@ -2,7 +2,7 @@
 """Propellers in a self-gravitating ring (issue 44, item 5): when do the wakes erase a propeller?
 
    /usr/bin/python3 scripts/propeller_gravity.py [--ratio 2 1 0.5] [--seeds 2019] [--orbits 1.5]
-                     [--from 1.0] [--to ORBITS] [--ly-rh 8] [--lanes 2] [--ranks 1] [--table-only] [--out DIR]
+                     [--from 1.0] [--to ORBITS] [--ly-rh 8] [--a-min 2] [--lanes 2] [--ranks 1] [--table-only] [--out DIR]
 
 Michikoshi & Kokubo's question: a moonlet of Hill radius r_H opens a propeller when r_H exceeds
 the Toomre critical wavelength lambda_cr = 4 pi^2 G Sigma / Omega0^2; below that, do the wakes
@@ -11,7 +11,7 @@ fill the gaps? Here r_H = 60 m is fixed and Sigma is set for r_H / lambda_cr = -
 
 The ring is cases/gravity-wakes' (Bridges restitution, 400 kg/m^3, dN/da ~ a^-3, 3D with
 Saturn's vertical tide) with radii 2-4 m instead of 1-4 m (3.3x fewer particles for the same
-Sigma; lambda_cr stays >= 3.7 of the largest diameters); the moonlet has the particles' density
+Sigma; lambda_cr stays >= 3.7 of the largest diameters; --a-min 1 for the resolution check); the moonlet has the particles' density
 (R = 46 m). Box: 60 r_H azimuthally, --ly-rh r_H radially, +-100 m in z (open), modified
 Lees-Edwards boundaries (LE2, the moonlet-free copy, is the unperturbed self-gravitating ring
 and the reference), the multi-rate integrator, the mesh at 5 m (split 12.5 m). The start is
@@ -51,9 +51,6 @@ R_HILL = 60.0
 M_MOON = 3 * SATURN * (R_HILL / R0) ** 3
 RHO = 400.0
 R_MOON = (3 * M_MOON / (4 * math.pi * RHO)) ** (1 / 3)
-A_MIN, A_MAX = 2.0, 4.0
-MEAN_A3 = (A_MAX - A_MIN) / (0.5 * (A_MIN ** -2 - A_MAX ** -2))  # dN/da ~ a^-3
-MEAN_MASS = 4 / 3 * math.pi * RHO * MEAN_A3
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--ratio", type=float, nargs="*", default=[2.0, 1.0, 0.5], help="r_H / lambda_cr")
@@ -62,6 +59,7 @@ ap.add_argument("--orbits", type=float, default=1.5)
 ap.add_argument("--from", dest="start", type=float, default=1.0, help="orbits: the analysis window's start")
 ap.add_argument("--to", dest="end", type=float, default=None, help="orbits: the analysis window's end (default: the run's)")
 ap.add_argument("--ly-rh", type=float, default=8.0, help="radial box width in r_H")
+ap.add_argument("--a-min", type=float, default=2.0, help="smallest particle radius (m); the largest is 4 m")
 ap.add_argument("--earlier", nargs="*", default=[],
                 help="runs.csv tables of earlier runs (e.g. docs/propeller/gravity/table-1.0-1.5.csv): their rows of other seeds "
                      "join the seed statistics")
@@ -70,6 +68,9 @@ a = ap.parse_args()
 os.makedirs(a.out, exist_ok=True)
 cassini = solver(ROOT, a.ranks)
 LX, LY = 60 * R_HILL, a.ly_rh * R_HILL
+A_MIN, A_MAX = a.a_min, 4.0
+MEAN_A3 = (A_MAX - A_MIN) / (0.5 * (A_MIN ** -2 - A_MAX ** -2))  # dN/da ~ a^-3
+MEAN_MASS = 4 / 3 * math.pi * RHO * MEAN_A3
 
 
 def sigma_for(ratio):
