@@ -220,6 +220,39 @@ TEST(SelfGravity, MeshPlusPairsIsNewtonAtEveryDistanceAtTheDefaultSplit) {
   EXPECT_LT(worst_far, 0.02);
 }
 
+TEST(SelfGravity, AShorterCutOffDropsOnlyTheGaussiansTail) {
+  // self_gravity.cutoff = 3 ends the pairs at 3 sqrt(2) eps = 66 m instead of 88 m: a pair just
+  // beyond loses its short-range part, w(x) = erfc(x) + 2 x exp(-x^2) / sqrt(pi) of its Newton
+  // force at x = r / (sqrt(2) eps) (4.4e-4 at the cut-off), and a pair within keeps every term.
+  if (!root()) return;
+  const double m = 1.0e9;
+  auto pull = [&](double r, const std::vector<std::string>& over, double* eps) {
+    auto sim = make_sim(kPatch, over, MPI_COMM_SELF);
+    const Vec3 a(7.0, 3.0, 0.5), b = a + Vec3(r * std::cos(0.4), r * std::sin(0.4), 0.0);
+    sim->particles.add(0, 0, 1.0, m, a, Vec3::Zero());
+    sim->particles.add(1, 0, 1.0, m, b, Vec3::Zero());
+    sim->domain.shear.offset = 29.0;
+    sim->setup();
+    std::vector<Vec3> F(sim->particles.nlocal, Vec3::Zero());
+    gravity_of(*sim).add_body_forces(*sim, F);
+    *eps = sim->cfg.get<SelfGravity::Settings>().split;
+    return Vec3(F[local_index(*sim, 0)]);
+  };
+  double eps = 0;
+  for (const double r : {56.0, 62.0, 68.0, 75.0}) {
+    const Vec3 full = pull(r, {}, &eps), cut = pull(r, {"self_gravity.cutoff=3"}, &eps);
+    const double x = r / (std::sqrt(2.0) * eps), newton = G * m * m / (r * r);
+    const double w = std::erfc(x) + 2 * x * std::exp(-x * x) / std::sqrt(M_PI);
+    const double lost = (full - cut).norm() / newton;
+    std::printf("r = %.0f m (x = %.2f): cut-off 3 loses %.3e of the pair's Newton force; w(x) = %.3e\n", r, x, lost, w);
+    if (x < 3)
+      EXPECT_LT(lost, 1e-6);  // the same pair terms (tables for another reach interpolate to ~1e-7 of w)
+    else
+      EXPECT_NEAR(lost, w, 0.02 * w);  // exactly the dropped pair's short-range part
+  }
+  EXPECT_NEAR(eps, 15.625, 1e-9);  // the default split of kPatch, for which the separations above were chosen
+}
+
 namespace {
 // Two equal particles (1e9 kg) at separation r0 in kFree's box, the relative vector at `angle`
 // in the plane; returns the simulation after setup.
@@ -598,6 +631,7 @@ TEST(SelfGravity, RefusesWhatItCannotSolve) {
   EXPECT_TRUE(fails({"self_gravity.grid=[32, 32]"}, "self_gravity.grid"));
   EXPECT_TRUE(fails({"domain.boundary=[\"periodic\", \"lees_edwards\", \"periodic\"]"}, "domain.boundary"));
   EXPECT_TRUE(fails({"self_gravity.every=0"}, "self_gravity.every"));
+  EXPECT_TRUE(fails({"self_gravity.cutoff=1.5"}, "self_gravity.cutoff"));
   EXPECT_TRUE(fails({"self_gravity.every=2", "time.integrator=\"multirate\""}, "self_gravity.every"));  // the long step is the period
   EXPECT_TRUE(fails({"domain.planar=true", "domain.boundary=[\"periodic\", \"lees_edwards\", \"periodic\"]"}, "nz = 1"));
 }

@@ -87,6 +87,10 @@ ModuleKind SelfGravity::kind() {
     s.split = f.number(g + "split", 2.5 * spacing);  // binaries at 1-3 h held to 1e-4 (SelfGravity.hpp)
     if (!(s.split > 0)) f.fail(g + "split", "a length > 0 (m): the width of the Gaussian splitting mesh and pairs");
     s.short_range = f.boolean(g + "short_range", true);
+    s.cutoff = f.number(g + "cutoff", 4.0);
+    if (!(s.cutoff >= 2 && s.cutoff <= 6))
+      f.fail(g + "cutoff", "a number in [2, 6]: where the pairs end, in units of sqrt(2) split (4: the pairs' short-range "
+                           "part has fallen to 5e-7 of Newton's force there; 3: 4e-4)");
     s.every = f.integer(g + "every", 1);
     if (s.every < 1) f.fail(g + "every", "an integer >= 1 (steps between solves)");
     c.set(s);
