@@ -122,7 +122,7 @@ if not a.table_only:
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 from gravity_wakes import wake  # noqa: E402  (the wakes' wave vector, as for cases/gravity-wakes)
 
-Y_EDGES = np.linspace(0, LY / 2, int(round(a.ly_rh * 4)) + 1)  # |y| bins of r_H / 4
+Y_EDGES = np.linspace(0, LY / 2, int(round(a.ly_rh * 4)) + 1)  # |y| bins of r_H / 8
 PIXELS = (0.25, 0.5, 1.0, 2.0)  # the visibility's pixel sizes, in r_H
 
 
@@ -218,6 +218,9 @@ for ratio in sorted(a.ratio, reverse=True):
                    depth=float(np.mean([r["depth"] for r in rs])), depth_sd=float(np.std([r["depth"] for r in rs], ddof=1)) if len(rs) > 1 else float("nan"),
                    null=float(np.mean([r["null"] for r in rs])), null_sd=float(np.std([r["null"] for r in rs], ddof=1)) if len(rs) > 1 else float("nan"),
                    centroid_rH=float(np.sum(y_mid * pos) / np.sum(pos) / R_HILL) if pos.sum() > 0 else float("nan"),
+                   # the same within |y| < 4 r_H, the narrowest box's half-width: comparable across box widths
+                   centroid4_rH=float(np.sum((y_mid * pos)[y_mid < 4 * R_HILL]) / np.sum(pos[y_mid < 4 * R_HILL]) / R_HILL)
+                   if pos[y_mid < 4 * R_HILL].sum() > 0 else float("nan"),
                    wavelength=float(np.mean([r["wavelength"] for r in rs])), pitch=float(np.mean([r["pitch"] for r in rs])),
                    Q=float(np.mean([r["Q"] for r in rs])),
                    z_le1_rH=float(np.nanmean([r["z1"] for r in rs])) / R_HILL, z_le2_rH=float(np.nanmean([r["z2"] for r in rs])) / R_HILL,
@@ -231,6 +234,9 @@ for ratio in sorted(a.ratio, reverse=True):
         run["height_max_rH"] = float(zp["z1"][after].max())
         run["height_at_rH"] = float(down_mid[after][np.argmax(zp["z1"][after])])
         run["height_far_rH"] = float(np.median(zp["z2"]))
+        run["height_profile"] = " ".join(f"{z:.2f}" for z in zp["z1"][after][:25])  # rms z / r_H at 0.5, 1.5, ... r_H downstream
+        half = 1 - h1.reshape(-1, 4).sum(axis=1) / np.maximum(h2.reshape(-1, 4).sum(axis=1), 1e-300)  # bins of r_H / 2
+        run["deficit_profile"] = " ".join(f"{d:+.2f}" for d in half)
         run["gap"] = bool(run["depth"] > 3 * run["null_sd"])
         for scale in PIXELS:  # the visibility: frame means of the gap's and the wakes' contrast
             v = {k: float(np.mean([r["vis"][scale][k] for r in rs])) for k in rs[0]["vis"][scale]}
@@ -263,6 +269,9 @@ for r in rows_out:
           f"height (rms z at 1-3 r_H) peaks at {r['height_max_rH']:.3f} r_H, {r['height_at_rH']:.1f} r_H downstream (unperturbed {r['height_far_rH']:.3f}); "
           f"LE1/LE2 {r['le1_over_le2']:.3f} (LE1 - LE2 upstream / within 2 r_H / downstream: {r['le1_excess_upstream']:+.3f} / "
           f"{r['le1_excess_near']:+.3f} / {r['le1_excess_downstream']:+.3f})")
+    print(f"    deficit 1 - Sigma_LE1/Sigma_LE2, 5-25 r_H downstream, at |y| = 0.25, 0.75, ... r_H: {r['deficit_profile']}; "
+          f"its centroid within |y| < 4 r_H {r['centroid4_rH']:.2f} r_H")
+    print(f"    height: LE1's rms z (r_H) at 1-3 r_H radially, 0.5, 1.5, ... r_H downstream: {r['height_profile']}")
     for p in PIXELS:
         print(f"    pixels {p:g} r_H: gap deficit {r[f'd{p:g}']:.2f}, unperturbed scatter CV {r[f'cv{p:g}']:.2f} "
               f"(wakes' part {r[f'cv_wake{p:g}']:.2f}) -> visibility D/CV_wake {r[f'vis{p:g}']:.2f} (null {r[f'vis_null{p:g}']:+.2f}), "
