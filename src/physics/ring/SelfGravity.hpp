@@ -14,9 +14,10 @@
 //
 // Long and short range (P3M with a Gaussian split, as Ewald summation splits): the mesh carries
 // the pull of Gaussian spheres of width eps (self_gravity.split; default 2.5 grid spacings), and
-// pairs closer than r_s = 4 sqrt(2) eps add the rest, Newton's law minus the Gaussians',
+// pairs closer than r_s = c sqrt(2) eps (c = self_gravity.cutoff, 4 by default) add the rest,
+// Newton's law minus the Gaussians',
 //   g_short(r) = G m / r^2 (erfc(x) + 2 x exp(-x^2) / sqrt(pi)),  x = r / (eps sqrt 2),
-// which is 5e-7 of Newton's at r_s. Together: Newton's law between the particles' centres at
+// which is 5e-7 of Newton's at r_s for c = 4 (4.4e-4 for c = 3). Together: Newton's law between the particles' centres at
 // every distance (exact for non-overlapping spheres: no softening is needed), including
 // particles resting on each other in a wake. Why eps = 2.5 h by default: at eps = h the mesh's
 // CIC error on the Gaussian part is 5-10 % of it at 1-3 h, 2-5 % of the total force there, and
