@@ -3,6 +3,7 @@
 
    /usr/bin/python3 scripts/propeller_gravity.py [--ratio 2 1 0.5] [--seeds 2019] [--orbits 1.5]
                      [--from 1.0] [--to ORBITS] [--ly-rh 8] [--a-min 2] [--lanes 2] [--ranks 1] [--table-only] [--out DIR]
+                     [--earlier TABLE ...] [--checks TABLE=LABEL ...]
 
 Michikoshi & Kokubo's question: a moonlet of Hill radius r_H opens a propeller when r_H exceeds
 the Toomre critical wavelength lambda_cr = 4 pi^2 G Sigma / Omega0^2; below that, do the wakes
@@ -60,6 +61,9 @@ ap.add_argument("--from", dest="start", type=float, default=1.0, help="orbits: t
 ap.add_argument("--to", dest="end", type=float, default=None, help="orbits: the analysis window's end (default: the run's)")
 ap.add_argument("--ly-rh", type=float, default=8.0, help="radial box width in r_H")
 ap.add_argument("--a-min", type=float, default=2.0, help="smallest particle radius (m); the largest is 4 m")
+ap.add_argument("--checks", nargs="*", default=[], metavar="TABLE=LABEL",
+                help="runs.csv tables of check runs (a wider box, finer particles), drawn apart on criteria.png "
+                     "and kept out of the seed statistics, e.g. docs/propeller/gravity/table-ly20-1.0-1.5.csv='20 r_H box'")
 ap.add_argument("--earlier", nargs="*", default=[],
                 help="runs.csv tables of earlier runs (e.g. docs/propeller/gravity/table-1.0-1.5.csv): their rows of other seeds "
                      "join the seed statistics")
@@ -322,6 +326,17 @@ if len(pooled) > 1:
         a_.set_xticks(ratios, [f"{r:g}" for r in ratios])
         a_.set_xlabel("r_H / lambda_cr")
         a_.set_title(label, fontsize=9)
+    # Check runs: each table its own marker, a little to the right of its ratio.
+    for n, spec in enumerate(a.checks):
+        path, _, label = spec.partition("=")
+        with open(path) as f:
+            rows = [{k: float(v) for k, v in row.items() if k not in ("gap",)} for row in csv.DictReader(f)]
+        marker = "DPv*"[n % 4]
+        for a_, (_, f_, _) in zip(ax, panels):
+            a_.plot([r["ratio"] * 1.08 ** (n + 1) for r in rows], [f_(r) for r in rows], marker, color=f"C{n + 1}",
+                    ms=6, mfc="none", label=label or path)
+    if a.checks:
+        ax[0].legend(fontsize=7, loc="center left")
     ax[0].text(0.02, 0.02, "x: null (no moonlet)", transform=ax[0].transAxes, fontsize=7, color="tab:red")
     ax[1].axhline(1, color="k", lw=0.5)
     ax[1].set_yscale("log")
