@@ -329,8 +329,13 @@ if len(pooled) > 1:
     # Check runs: each table its own marker, a little to the right of its ratio.
     for n, spec in enumerate(a.checks):
         path, _, label = spec.partition("=")
-        with open(path) as f:
-            rows = [{k: float(v) for k, v in row.items() if k not in ("gap",)} for row in csv.DictReader(f)]
+        try:
+            with open(path) as f:
+                rows = [{k: float(row[k]) for k in ("ratio", "depth", "vis0.25", "wavelength", "lambda_cr", "height_max_rH")}
+                        for row in csv.DictReader(f)]
+        except (OSError, KeyError, ValueError) as e:
+            sys.exit(f"propeller_gravity.py: --checks {spec!r}: expected TABLE[=LABEL] with TABLE a runs.csv written by "
+                     f"this script (columns ratio, depth, vis0.25, wavelength, lambda_cr, height_max_rH): {e!r}")
         marker = "DPv*"[n % 4]
         for a_, (_, f_, _) in zip(ax, panels):
             a_.plot([r["ratio"] * 1.08 ** (n + 1) for r in rows], [f_(r) for r in rows], marker, color=f"C{n + 1}",

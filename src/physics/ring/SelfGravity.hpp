@@ -18,7 +18,8 @@
 // Newton's law minus the Gaussians',
 //   g_short(r) = G m / r^2 (erfc(x) + 2 x exp(-x^2) / sqrt(pi)),  x = r / (eps sqrt 2),
 // which is 5e-7 of Newton's at r_s for c = 4 (4.4e-4 for c = 3). Together: Newton's law
-// between the particles' centres at every distance (exact for non-overlapping spheres: no softening is needed), including
+// between the particles' centres at every distance (exact for non-overlapping spheres: no
+// softening is needed), including
 // particles resting on each other in a wake. Why eps = 2.5 h by default: at eps = h the mesh's
 // CIC error on the Gaussian part is 5-10 % of it at 1-3 h, 2-5 % of the total force there, and
 // the error is not a gradient: a binary at 1.5 h spirals in while gaining kinetic energy; at 2 h
